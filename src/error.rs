@@ -1,0 +1,75 @@
+//! Typed errors. Every error names what was wrong and where (a field path such as
+//! `height_fog[0].components[1].scattering[2]`, or a slice name).
+
+use core::fmt;
+
+/// A scene description that cannot be evaluated.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SceneError {
+    /// A value is NaN or infinite.
+    NonFinite { field: String, value: f32 },
+    /// A value that must be non-negative is negative.
+    Negative { field: String, value: f32 },
+    /// A vector that must have a direction is zero (or too small to normalize).
+    ZeroVector { field: String },
+    /// A value is outside its allowed range.
+    OutOfRange {
+        field: String,
+        value: f32,
+        range: &'static str,
+    },
+    /// A list that must not be empty is empty.
+    Empty { field: String },
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SceneError::NonFinite { field, value } => {
+                write!(f, "{field}: must be finite, got {value}")
+            }
+            SceneError::Negative { field, value } => {
+                write!(f, "{field}: must be >= 0, got {value}")
+            }
+            SceneError::ZeroVector { field } => {
+                write!(f, "{field}: must be a non-zero vector")
+            }
+            SceneError::OutOfRange {
+                field,
+                value,
+                range,
+            } => write!(f, "{field}: must be in {range}, got {value}"),
+            SceneError::Empty { field } => write!(f, "{field}: must not be empty"),
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// A ray batch or output set whose slices do not fit together.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum BatchError {
+    /// A slice's length differs from the batch's ray count.
+    LengthMismatch {
+        field: &'static str,
+        expected: usize,
+        found: usize,
+    },
+}
+
+impl fmt::Display for BatchError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            BatchError::LengthMismatch {
+                field,
+                expected,
+                found,
+            } => write!(
+                f,
+                "{field}: has {found} elements, the batch has {expected} rays"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for BatchError {}

@@ -1,0 +1,309 @@
+//! The evaluation of one packet of rays (1 or 8 lanes) and the batch loops around it.
+//!
+//! [`eval_packet`] is written once over [`Lane`]; the batch loop instantiates it for
+//! `f32x8` (with the tail padded into one more 8-lane packet, so a ray's result does not
+//! depend on its position) and for `f32` (the scalar path). Both give bit-identical
+//! results (see `math::lane`). Const generics select, per scene and batch, the up axis
+//! (no dot product for ±X/±Y/±Z), unit directions (no |d|), and the outputs wanted, so
+//! that work a call does not need is compiled out rather than skipped at run time.
+
+use crate::math::{exp, ldexp, Lane};
+use crate::medium::height_fog::{direction_norm, layer_depth, RayGeom};
+use crate::ray::{Outputs, Rays};
+use crate::scene::{LayerPlan, Scene, UpAxis};
+use wide::f32x8;
+
+/// One packet of rays. Components a kernel does not need are left at zero and never read.
+#[derive(Clone, Copy)]
+pub(crate) struct PacketIn<L> {
+    pub o: [L; 3],
+    pub d: [L; 3],
+    pub t: L,
+}
+
+/// One packet of results.
+#[derive(Clone, Copy)]
+pub(crate) struct PacketOut<L> {
+    pub tau: [L; 3],
+    pub trans: [L; 3],
+    pub insc: [L; 3],
+}
+
+/// `AXIS` in 0..3 means up = ±e_AXIS (sign folded into the layers); 3 means general.
+pub(crate) const GENERAL: usize = 3;
+
+/// Which input components a kernel reads.
+#[inline(always)]
+pub(crate) fn reads<const AXIS: usize, const UNIT: bool>(
+    scene: &Scene,
+    want_l: bool,
+) -> ([bool; 3], [bool; 3]) {
+    let all_d = !UNIT || (want_l && scene.sun_dir.is_some());
+    let mut o = [AXIS == GENERAL; 3];
+    let mut d = [AXIS == GENERAL || all_d; 3];
+    if AXIS < 3 {
+        o[AXIS] = true;
+        d[AXIS] = true;
+    }
+    (o, d)
+}
+
+/// The fog colour of one layer for a packet (per channel): the compiled constant plus
+/// the phase-weighted sun terms.
+#[inline(always)]
+fn layer_colour<L: Lane>(layer: &LayerPlan, sun: Option<[f32; 3]>, dir: &[L; 3]) -> [L; 3] {
+    let mut c = layer.colour_const.map(L::splat);
+    if let Some(s) = sun {
+        for (phase, k) in &layer.colour_sun {
+            let p = phase.eval(*dir, s);
+            for ch in 0..3 {
+                c[ch] = p.mul_add(L::splat(k[ch]), c[ch]);
+            }
+        }
+    }
+    c
+}
+
+#[inline(always)]
+pub(crate) fn eval_packet<
+    L: Lane,
+    const AXIS: usize,
+    const UNIT: bool,
+    const WANT_T: bool,
+    const WANT_L: bool,
+>(
+    scene: &Scene,
+    p: &PacketIn<L>,
+) -> PacketOut<L> {
+    let zero = L::splat(0.0);
+    let one = L::splat(1.0);
+    let mut out = PacketOut {
+        tau: [zero; 3],
+        trans: [one; 3],
+        insc: [zero; 3],
+    };
+    let layers = &scene.layers;
+    if layers.is_empty() {
+        return out;
+    }
+
+    let (norm, dir) = if UNIT {
+        ((one, zero), p.d)
+    } else {
+        direction_norm(p.d)
+    };
+    let (y, u) = if AXIS < 3 {
+        (p.o[AXIS], p.d[AXIS])
+    } else {
+        let up = scene.up.to_array();
+        (crate::light::dot3(p.o, up), crate::light::dot3(p.d, up))
+    };
+    let geom = RayGeom::new(y, u, p.t, norm);
+    let sun = if WANT_L {
+        scene.sun_dir.map(|s| s.to_array())
+    } else {
+        None
+    };
+
+    if layers.len() == 1 {
+        let layer = &layers[0];
+        let (gm, ge) = layer_depth(layer, &geom);
+        let grey = layer.sigma[0] == layer.sigma[1] && layer.sigma[1] == layer.sigma[2];
+        if grey {
+            // One optical depth and one exponential for all three channels.
+            let s = layer.sigma[0];
+            let tau = ldexp(gm * L::splat(s.m), ge + L::splat(s.e));
+            out.tau = [tau; 3];
+            if WANT_T || WANT_L {
+                out.trans = [exp(tau.neg()); 3];
+            }
+        } else {
+            for ch in 0..3 {
+                let s = layer.sigma[ch];
+                out.tau[ch] = ldexp(gm * L::splat(s.m), ge + L::splat(s.e));
+                if WANT_T || WANT_L {
+                    out.trans[ch] = exp(out.tau[ch].neg());
+                }
+            }
+        }
+        if WANT_L {
+            let c = layer_colour(layer, sun, &dir);
+            for ch in 0..3 {
+                out.insc[ch] = c[ch] * (one - out.trans[ch]);
+            }
+        }
+        return out;
+    }
+
+    // Several layers: optical depths add; the fog colour is the τ-weighted mix of the
+    // layers' colours (exact for one layer, an approximation otherwise). The weights are
+    // formed from the mantissa/exponent pairs relative to the largest exponent, so they
+    // stay finite where τ itself saturates.
+    // (No allocation: the second pass recomputes each layer's depth.)
+    let mut emax = [L::splat(-1.0e30); 3];
+    for layer in layers {
+        let (gm, ge) = layer_depth(layer, &geom);
+        for ch in 0..3 {
+            let s = layer.sigma[ch];
+            let x = gm * L::splat(s.m);
+            let e = ge + L::splat(s.e);
+            out.tau[ch] = out.tau[ch] + ldexp(x, e);
+            emax[ch] = L::select(x.ne(zero), e.max(emax[ch]), emax[ch]);
+        }
+    }
+    if WANT_T || WANT_L {
+        for ch in 0..3 {
+            out.trans[ch] = exp(out.tau[ch].neg());
+        }
+    }
+    if WANT_L {
+        let mut num = [zero; 3];
+        let mut den = [zero; 3];
+        for layer in layers {
+            let (gm, ge) = layer_depth(layer, &geom);
+            let c = layer_colour(layer, sun, &dir);
+            for ch in 0..3 {
+                let s = layer.sigma[ch];
+                let w = ldexp(gm * L::splat(s.m), ge + L::splat(s.e) - emax[ch]);
+                num[ch] = w.mul_add(c[ch], num[ch]);
+                den[ch] = den[ch] + w;
+            }
+        }
+        for ch in 0..3 {
+            let colour = num[ch] / den[ch].max(L::splat(1e-30));
+            out.insc[ch] = colour * (one - out.trans[ch]);
+        }
+    }
+    out
+}
+
+#[inline(always)]
+fn load<L: Lane>(s: &[f32], i: usize, wanted: bool) -> L {
+    if wanted {
+        L::load(&s[i..])
+    } else {
+        L::splat(0.0)
+    }
+}
+
+#[inline(always)]
+fn store<L: Lane>(v: [L; 3], dst: &mut Option<crate::ray::RgbSlices<'_>>, i: usize) {
+    if let Some(d) = dst {
+        for ch in 0..3 {
+            v[ch].store(&mut d[ch][i..]);
+        }
+    }
+}
+
+/// Evaluates a whole batch with lanes of type `L` (full packets), then the tail (for
+/// `f32x8`) as one padded packet.
+fn run<L: Lane, const AXIS: usize, const UNIT: bool, const WANT_T: bool, const WANT_L: bool>(
+    scene: &Scene,
+    rays: &Rays<'_>,
+    out: &mut Outputs<'_>,
+) {
+    let n = rays.len();
+    let (ro, rd) = reads::<AXIS, UNIT>(scene, WANT_L);
+    let full = n - n % L::LANES;
+    let mut i = 0;
+    while i < full {
+        let p = PacketIn {
+            o: [0, 1, 2].map(|c| load::<L>(rays.o[c], i, ro[c])),
+            d: [0, 1, 2].map(|c| load::<L>(rays.d[c], i, rd[c])),
+            t: L::load(&rays.t[i..]),
+        };
+        let r = eval_packet::<L, AXIS, UNIT, WANT_T, WANT_L>(scene, &p);
+        store(r.tau, &mut out.tau, i);
+        store(r.trans, &mut out.transmittance, i);
+        store(r.insc, &mut out.inscattering, i);
+        i += L::LANES;
+    }
+    if full < n {
+        // The tail: pad to one 8-lane packet with a harmless ray (t = 0), evaluate, and
+        // store the live lanes. Same instructions as a full packet, so the same bits.
+        let rem = n - full;
+        let pad = |s: &[f32], fill: f32| {
+            let mut b = [fill; 8];
+            b[..rem].copy_from_slice(&s[full..]);
+            b
+        };
+        let o = [0, 1, 2].map(|c| f32x8::new(pad(rays.o[c], 0.0)));
+        let d = [0, 1, 2].map(|c| f32x8::new(pad(rays.d[c], 1.0)));
+        let t = f32x8::new(pad(rays.t, 0.0));
+        let r = eval_packet::<f32x8, AXIS, UNIT, WANT_T, WANT_L>(scene, &PacketIn { o, d, t });
+        let put = |v: [f32x8; 3], dst: &mut Option<crate::ray::RgbSlices<'_>>| {
+            if let Some(d) = dst {
+                for ch in 0..3 {
+                    d[ch][full..].copy_from_slice(&v[ch].to_array()[..rem]);
+                }
+            }
+        };
+        put(r.tau, &mut out.tau);
+        put(r.trans, &mut out.transmittance);
+        put(r.insc, &mut out.inscattering);
+    }
+}
+
+/// Which lane type a batch runs with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Width {
+    X8,
+    Scalar,
+}
+
+macro_rules! dispatch_outputs {
+    ($L:ty, $AXIS:expr, $UNIT:expr, $scene:expr, $rays:expr, $out:expr) => {{
+        let want_l = $out.inscattering.is_some();
+        let want_t = $out.transmittance.is_some();
+        match (want_t, want_l) {
+            (_, true) => run::<$L, $AXIS, $UNIT, true, true>($scene, $rays, $out),
+            (true, false) => run::<$L, $AXIS, $UNIT, true, false>($scene, $rays, $out),
+            (false, false) => run::<$L, $AXIS, $UNIT, false, false>($scene, $rays, $out),
+        }
+    }};
+}
+
+macro_rules! dispatch_geometry {
+    ($L:ty, $scene:expr, $rays:expr, $out:expr) => {{
+        match ($scene.axis, $rays.unit) {
+            (UpAxis::Axis(0), false) => dispatch_outputs!($L, 0, false, $scene, $rays, $out),
+            (UpAxis::Axis(1), false) => dispatch_outputs!($L, 1, false, $scene, $rays, $out),
+            (UpAxis::Axis(2), false) => dispatch_outputs!($L, 2, false, $scene, $rays, $out),
+            (UpAxis::Axis(0), true) => dispatch_outputs!($L, 0, true, $scene, $rays, $out),
+            (UpAxis::Axis(1), true) => dispatch_outputs!($L, 1, true, $scene, $rays, $out),
+            (UpAxis::Axis(2), true) => dispatch_outputs!($L, 2, true, $scene, $rays, $out),
+            (_, false) => dispatch_outputs!($L, GENERAL, false, $scene, $rays, $out),
+            (_, true) => dispatch_outputs!($L, GENERAL, true, $scene, $rays, $out),
+        }
+    }};
+}
+
+/// Evaluates a batch on the calling thread.
+pub(crate) fn evaluate(scene: &Scene, rays: &Rays<'_>, out: &mut Outputs<'_>, width: Width) {
+    match width {
+        Width::X8 => dispatch_geometry!(f32x8, scene, rays, out),
+        Width::Scalar => dispatch_geometry!(f32, scene, rays, out),
+    }
+}
+
+/// Rays per parallel task: inputs and outputs of one chunk (64 bytes per ray) fit in a
+/// core's L2 cache.
+pub(crate) const PAR_CHUNK: usize = 4096;
+
+/// Evaluates a batch with rayon, splitting it in halves (multiples of 8 rays) down to
+/// chunks of [`PAR_CHUNK`] rays.
+pub(crate) fn evaluate_par(scene: &Scene, rays: &Rays<'_>, out: Outputs<'_>) {
+    let n = rays.len();
+    if n <= PAR_CHUNK {
+        let mut out = out;
+        evaluate(scene, rays, &mut out, Width::X8);
+        return;
+    }
+    let mid = (n / 2).next_multiple_of(8).min(n);
+    let (a, b) = out.split_at(mid);
+    let (ra, rb) = (rays.slice(0, mid), rays.slice(mid, n));
+    rayon::join(
+        || evaluate_par(scene, &ra, a),
+        || evaluate_par(scene, &rb, b),
+    );
+}

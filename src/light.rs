@@ -1,0 +1,99 @@
+//! Phase functions and the per-ray fog colour (seed 001, eqs. 11 and 18).
+//!
+//! The fog colour of a layer is Σ_c β_s,c · (p_c(cos θ) · E_sun + L_amb) / Σ_c β_t,c. The
+//! scene compiles the parts that do not depend on the ray (ambient, isotropic components)
+//! into one constant per channel, so a scene without sun, or with only isotropic fog,
+//! evaluates no phase function at all.
+
+use crate::error::SceneError;
+use crate::math::Lane;
+
+/// A phase function p(cos θ), normalized over the sphere (∮ p dΩ = 1).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+pub enum Phase {
+    /// p = 1 / 4π.
+    #[default]
+    Isotropic,
+    /// p = 3 / 16π · (1 + cos²θ).
+    Rayleigh,
+    /// p = (1 − g²) / (4π · (1 + g² − 2g cos θ)^{3/2}), with −1 < g < 1.
+    HenyeyGreenstein(f32),
+}
+
+impl Phase {
+    pub(crate) fn validate(&self, field: &str) -> Result<(), SceneError> {
+        if let Phase::HenyeyGreenstein(g) = *self {
+            if !g.is_finite() {
+                return Err(SceneError::NonFinite {
+                    field: format!("{field}.henyey_greenstein"),
+                    value: g,
+                });
+            }
+            if !(g > -1.0 && g < 1.0) {
+                return Err(SceneError::OutOfRange {
+                    field: format!("{field}.henyey_greenstein"),
+                    value: g,
+                    range: "(-1, 1)",
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Evaluates the phase function in f64 from cos θ (the reference form).
+    pub fn eval_f64(&self, cos_theta: f64) -> f64 {
+        use core::f64::consts::PI;
+        match *self {
+            Phase::Isotropic => 1.0 / (4.0 * PI),
+            Phase::Rayleigh => 3.0 / (16.0 * PI) * (1.0 + cos_theta * cos_theta),
+            Phase::HenyeyGreenstein(g) => {
+                let g = g as f64;
+                (1.0 - g * g) / (4.0 * PI * (1.0 + g * g - 2.0 * g * cos_theta).powf(1.5))
+            }
+        }
+    }
+
+    /// Evaluates the phase function for unit vectors `v` (view direction) and `s` (toward
+    /// the sun), lane-wise.
+    ///
+    /// Henyey–Greenstein's denominator 1 + g² − 2g·cos θ cancels for |g| → 1 near the
+    /// peak; it is computed as (1 − g)² + g·|v − s|² (g ≥ 0) or (1 + g)² − g·|v + s|²
+    /// (g < 0), where every term is non-negative, so the peak (p ≈ 1584 for g = 0.99) keeps
+    /// full relative precision.
+    #[inline(always)]
+    pub(crate) fn eval<L: Lane>(&self, v: [L; 3], s: [f32; 3]) -> L {
+        use core::f32::consts::PI;
+        match *self {
+            Phase::Isotropic => L::splat(1.0 / (4.0 * PI)),
+            Phase::Rayleigh => {
+                let c = dot3(v, s);
+                c.mul_add(c, L::splat(1.0)) * L::splat(3.0 / (16.0 * PI))
+            }
+            Phase::HenyeyGreenstein(g) => {
+                let (base, gg, sign) = if g >= 0.0 {
+                    ((1.0 - g) * (1.0 - g), g, -1.0)
+                } else {
+                    ((1.0 + g) * (1.0 + g), -g, 1.0)
+                };
+                // |v ∓ s|²
+                let w0 = v[0] + L::splat(sign * s[0]);
+                let w1 = v[1] + L::splat(sign * s[1]);
+                let w2 = v[2] + L::splat(sign * s[2]);
+                let w = w0.mul_add(w0, w1.mul_add(w1, w2 * w2));
+                let q = w.mul_add(L::splat(gg), L::splat(base));
+                let num = (1.0 - g) * (1.0 + g) / (4.0 * PI);
+                L::splat(num) / (q * q.sqrt())
+            }
+        }
+    }
+}
+
+#[inline(always)]
+pub(crate) fn dot3<L: Lane>(v: [L; 3], s: [f32; 3]) -> L {
+    v[0].mul_add(
+        L::splat(s[0]),
+        v[1].mul_add(L::splat(s[1]), v[2] * L::splat(s[2])),
+    )
+}

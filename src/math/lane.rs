@@ -1,0 +1,302 @@
+//! The lane abstraction: every kernel in this crate is written once over [`Lane`] and
+//! instantiated for `f32` (the scalar path) and `wide::f32x8` (8 rays per instruction).
+//!
+//! The two instantiations are bit-identical: each trait method maps to one IEEE-754
+//! operation with the same rounding in both (`mul_add` is fused in both when the target
+//! has FMA and unfused in both when it does not; `min`/`max` follow the x86 `minps`/`maxps`
+//! rule `a < b ? a : b` in both, so even NaN inputs give the same bits).
+
+use core::ops::{Add, BitAnd, BitOr, Div, Mul, Not, Sub};
+use wide::{f32x8, i32x8, CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, CmpNe};
+
+/// A vector of `f32` lanes (1 or 8) with the operations the kernels need.
+pub trait Lane:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Send
+    + Sync
+    + 'static
+{
+    /// A per-lane boolean.
+    type Mask: Copy
+        + BitAnd<Output = Self::Mask>
+        + BitOr<Output = Self::Mask>
+        + Not<Output = Self::Mask>;
+    /// Number of lanes.
+    const LANES: usize;
+
+    fn splat(v: f32) -> Self;
+    /// Loads `LANES` values from the front of `s` (which must hold at least that many).
+    fn load(s: &[f32]) -> Self;
+    /// Stores `LANES` values to the front of `s` (which must hold at least that many).
+    fn store(self, s: &mut [f32]);
+
+    /// `self * a + b`, rounded once where the target has FMA.
+    fn mul_add(self, a: Self, b: Self) -> Self;
+    /// `a < b ? a : b` (x86 `minps` semantics: the second operand wins on NaN).
+    fn min(self, b: Self) -> Self;
+    /// `a > b ? a : b` (x86 `maxps` semantics: the second operand wins on NaN).
+    fn max(self, b: Self) -> Self;
+    fn abs(self) -> Self;
+    fn neg(self) -> Self;
+    fn sqrt(self) -> Self;
+    /// Round to the nearest integer, ties to even.
+    fn round(self) -> Self;
+    /// The magnitude of `self` with the sign of `sign`.
+    fn copysign(self, sign: Self) -> Self;
+
+    fn lt(self, b: Self) -> Self::Mask;
+    fn le(self, b: Self) -> Self::Mask;
+    fn gt(self, b: Self) -> Self::Mask;
+    fn ge(self, b: Self) -> Self::Mask;
+    fn eq(self, b: Self) -> Self::Mask;
+    fn ne(self, b: Self) -> Self::Mask;
+    /// `m ? a : b`, lane by lane.
+    fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    /// True if any lane of the mask is set.
+    fn any(m: Self::Mask) -> bool;
+
+    /// `2^k` for an integer-valued `k` in `[-126, 128]` (128 gives `+inf`), built from
+    /// the exponent bits: one add and one shift.
+    fn pow2i(k: Self) -> Self;
+    /// The biased exponent field of `self` (0 for zero and subnormals, 255 for inf/NaN),
+    /// as an integer-valued float.
+    fn exponent_field(self) -> Self;
+    /// `self` with its exponent field replaced by 127: sign * [1, 2) for normal inputs.
+    fn with_unit_exponent(self) -> Self;
+
+    /// Clamp to `[lo, hi]`; a NaN lane stays NaN.
+    #[inline(always)]
+    fn clamp(self, lo: Self, hi: Self) -> Self {
+        lo.max(hi.min(self))
+    }
+}
+
+/// 1.5 * 2^23: adding it to an integer-valued float in [-2^22, 2^22] leaves the integer
+/// in the low mantissa bits.
+const ROUND_MAGIC: f32 = 12_582_912.0;
+/// 2^23, the float whose low mantissa bits read as an integer directly.
+const TWO23: f32 = 8_388_608.0;
+
+impl Lane for f32 {
+    type Mask = bool;
+    const LANES: usize = 1;
+
+    #[inline(always)]
+    fn splat(v: f32) -> Self {
+        v
+    }
+    #[inline(always)]
+    fn load(s: &[f32]) -> Self {
+        s[0]
+    }
+    #[inline(always)]
+    fn store(self, s: &mut [f32]) {
+        s[0] = self;
+    }
+    #[inline(always)]
+    fn mul_add(self, a: Self, b: Self) -> Self {
+        #[cfg(target_feature = "fma")]
+        {
+            f32::mul_add(self, a, b)
+        }
+        #[cfg(not(target_feature = "fma"))]
+        {
+            self * a + b
+        }
+    }
+    #[inline(always)]
+    fn min(self, b: Self) -> Self {
+        if self < b {
+            self
+        } else {
+            b
+        }
+    }
+    #[inline(always)]
+    fn max(self, b: Self) -> Self {
+        if self > b {
+            self
+        } else {
+            b
+        }
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f32::abs(self)
+    }
+    #[inline(always)]
+    fn neg(self) -> Self {
+        -self
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f32::sqrt(self)
+    }
+    #[inline(always)]
+    fn round(self) -> Self {
+        f32::round_ties_even(self)
+    }
+    #[inline(always)]
+    fn copysign(self, sign: Self) -> Self {
+        f32::copysign(self, sign)
+    }
+    #[inline(always)]
+    fn lt(self, b: Self) -> bool {
+        self < b
+    }
+    #[inline(always)]
+    fn le(self, b: Self) -> bool {
+        self <= b
+    }
+    #[inline(always)]
+    fn gt(self, b: Self) -> bool {
+        self > b
+    }
+    #[inline(always)]
+    fn ge(self, b: Self) -> bool {
+        self >= b
+    }
+    #[inline(always)]
+    fn eq(self, b: Self) -> bool {
+        self == b
+    }
+    #[inline(always)]
+    fn ne(self, b: Self) -> bool {
+        self != b
+    }
+    #[inline(always)]
+    fn select(m: bool, a: Self, b: Self) -> Self {
+        if m {
+            a
+        } else {
+            b
+        }
+    }
+    #[inline(always)]
+    fn any(m: bool) -> bool {
+        m
+    }
+    #[inline(always)]
+    fn pow2i(k: Self) -> Self {
+        f32::from_bits((k + (ROUND_MAGIC + 127.0)).to_bits() << 23)
+    }
+    #[inline(always)]
+    fn exponent_field(self) -> Self {
+        f32::from_bits(((self.to_bits() >> 23) & 0xff) | TWO23.to_bits()) - TWO23
+    }
+    #[inline(always)]
+    fn with_unit_exponent(self) -> Self {
+        f32::from_bits((self.to_bits() & 0x807f_ffff) | 0x3f80_0000)
+    }
+}
+
+#[inline(always)]
+fn as_i(x: f32x8) -> i32x8 {
+    bytemuck::cast(x)
+}
+#[inline(always)]
+fn as_f(x: i32x8) -> f32x8 {
+    bytemuck::cast(x)
+}
+
+impl Lane for f32x8 {
+    type Mask = f32x8;
+    const LANES: usize = 8;
+
+    #[inline(always)]
+    fn splat(v: f32) -> Self {
+        f32x8::splat(v)
+    }
+    #[inline(always)]
+    fn load(s: &[f32]) -> Self {
+        let a: [f32; 8] = s[..8].try_into().unwrap();
+        f32x8::new(a)
+    }
+    #[inline(always)]
+    fn store(self, s: &mut [f32]) {
+        s[..8].copy_from_slice(&self.to_array());
+    }
+    #[inline(always)]
+    fn mul_add(self, a: Self, b: Self) -> Self {
+        f32x8::mul_add(self, a, b)
+    }
+    #[inline(always)]
+    fn min(self, b: Self) -> Self {
+        // vminps(a, b) = a < b ? a : b
+        f32x8::fast_min(self, b)
+    }
+    #[inline(always)]
+    fn max(self, b: Self) -> Self {
+        f32x8::fast_max(self, b)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f32x8::abs(self)
+    }
+    #[inline(always)]
+    fn neg(self) -> Self {
+        self ^ f32x8::splat(-0.0)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f32x8::sqrt(self)
+    }
+    #[inline(always)]
+    fn round(self) -> Self {
+        f32x8::round(self)
+    }
+    #[inline(always)]
+    fn copysign(self, sign: Self) -> Self {
+        let s = f32x8::splat(-0.0);
+        (self & !s) | (sign & s)
+    }
+    #[inline(always)]
+    fn lt(self, b: Self) -> Self {
+        self.cmp_lt(b)
+    }
+    #[inline(always)]
+    fn le(self, b: Self) -> Self {
+        self.cmp_le(b)
+    }
+    #[inline(always)]
+    fn gt(self, b: Self) -> Self {
+        self.cmp_gt(b)
+    }
+    #[inline(always)]
+    fn ge(self, b: Self) -> Self {
+        self.cmp_ge(b)
+    }
+    #[inline(always)]
+    fn eq(self, b: Self) -> Self {
+        self.cmp_eq(b)
+    }
+    #[inline(always)]
+    fn ne(self, b: Self) -> Self {
+        self.cmp_ne(b)
+    }
+    #[inline(always)]
+    fn select(m: Self, a: Self, b: Self) -> Self {
+        m.blend(a, b)
+    }
+    #[inline(always)]
+    fn any(m: Self) -> bool {
+        m.any()
+    }
+    #[inline(always)]
+    fn pow2i(k: Self) -> Self {
+        as_f(as_i(k + f32x8::splat(ROUND_MAGIC + 127.0)) << 23)
+    }
+    #[inline(always)]
+    fn exponent_field(self) -> Self {
+        let bits = (as_i(self) >> 23) & i32x8::splat(0xff);
+        as_f(bits | i32x8::splat(TWO23.to_bits() as i32)) - f32x8::splat(TWO23)
+    }
+    #[inline(always)]
+    fn with_unit_exponent(self) -> Self {
+        as_f((as_i(self) & i32x8::splat(0x807f_ffff_u32 as i32)) | i32x8::splat(0x3f80_0000))
+    }
+}

@@ -1,0 +1,3 @@
+//! Participating media, one file each.
+
+pub(crate) mod height_fog;

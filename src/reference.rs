@@ -1,0 +1,1 @@
+//! Independent f64 reference (placeholder, replaced below).

@@ -1,0 +1,376 @@
+//! Scene description (plain data, serde), validation, and the compiled [`Scene`].
+//!
+//! A [`SceneDesc`] is what a user writes (in Rust or JSON). [`Scene::new`] validates it,
+//! naming the offending field, and compiles the per-scene constants the kernels use
+//! (normalized vectors, the frexp split of every coefficient, the fog colour terms), so
+//! that nothing that is constant per scene is recomputed per ray. A `Scene` cannot be
+//! changed after it is built, so a valid scene stays valid.
+
+use crate::error::SceneError;
+use crate::light::Phase;
+use glam::Vec3;
+
+/// One scattering component of a height fog layer (seed 001's Rayleigh or Mie part):
+/// coefficients at the layer's base height, per RGB channel, in 1/length.
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct Component {
+    /// Scattering coefficient β_s at the base height (RGB; JSON: a number or `[r, g, b]`).
+    #[cfg_attr(feature = "serde", serde(with = "crate::serde_rgb"))]
+    pub scattering: Vec3,
+    /// Absorption coefficient β_a at the base height (default 0).
+    #[cfg_attr(feature = "serde", serde(default = "zero3", with = "crate::serde_rgb"))]
+    pub absorption: Vec3,
+    /// Phase function of the scattering (default isotropic).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub phase: Phase,
+}
+
+/// An exponential height fog layer: σ(x) = Σ_c (β_s,c + β_a,c) · exp(−b · (dot(x, up) − h0)).
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct HeightFogLayer {
+    /// h0: the height at which the coefficients apply.
+    pub base_height: f32,
+    /// b = 1 / scale height. Any finite value: 0 is homogeneous fog, negative means the
+    /// density grows with height.
+    pub falloff: f32,
+    /// The scattering components (at least one).
+    pub components: Vec<Component>,
+}
+
+/// The sun: a directional light.
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct Sun {
+    /// Direction toward the sun (need not be unit length; must not be zero).
+    #[cfg_attr(feature = "serde", serde(with = "crate::serde_rgb"))]
+    pub direction: Vec3,
+    /// E_sun of seed 001 (RGB).
+    #[cfg_attr(feature = "serde", serde(with = "crate::serde_rgb"))]
+    pub radiance: Vec3,
+}
+
+/// Light reaching the fog: ambient (isotropic) and an optional sun.
+#[derive(Clone, Debug, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct Lighting {
+    /// L_amb of seed 001 (RGB, default 0).
+    #[cfg_attr(feature = "serde", serde(default = "zero3", with = "crate::serde_rgb"))]
+    pub ambient: Vec3,
+    /// The sun, if any. A scene without sun evaluates no phase function.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub sun: Option<Sun>,
+}
+
+/// A scene as written by a user: the JSON model of `analytic-fog eval --scene`.
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct SceneDesc {
+    /// The up vector (default +Y); normalized by the library.
+    #[cfg_attr(
+        feature = "serde",
+        serde(default = "default_up", with = "crate::serde_rgb")
+    )]
+    pub up: Vec3,
+    /// Height fog layers; optical depths add.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub height_fog: Vec<HeightFogLayer>,
+    /// Lighting (default: none, so the fog scatters no light).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub lighting: Lighting,
+}
+
+#[allow(dead_code)]
+fn zero3() -> Vec3 {
+    Vec3::ZERO
+}
+#[allow(dead_code)]
+fn default_up() -> Vec3 {
+    Vec3::Y
+}
+
+impl Default for SceneDesc {
+    fn default() -> Self {
+        SceneDesc {
+            up: Vec3::Y,
+            height_fog: Vec::new(),
+            lighting: Lighting::default(),
+        }
+    }
+}
+
+/// Which axis the up vector is, so that the kernels can skip the dot product.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum UpAxis {
+    /// Up is ±X, ±Y or ±Z: the height is one coordinate (the sign is folded into the
+    /// layers' constants).
+    Axis(usize),
+    /// Any other direction: height = dot(x, up).
+    General,
+}
+
+/// A non-negative f32 split as `m * 2^e` (`m` in [1, 2), or 0).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Split {
+    pub m: f32,
+    pub e: f32,
+}
+
+impl Split {
+    pub(crate) fn of(x: f32) -> Split {
+        let (m, e) = crate::math::frexp(x);
+        Split { m, e }
+    }
+}
+
+/// One layer's compiled constants.
+#[derive(Clone, Debug)]
+pub(crate) struct LayerPlan {
+    /// Base height along the (sign-folded) up axis.
+    pub h0: f32,
+    /// Falloff along the (sign-folded) up axis.
+    pub b: f32,
+    /// frexp of `b`.
+    pub b_split: Split,
+    /// frexp of the extinction per channel.
+    pub sigma: [Split; 3],
+    /// The extinction per channel.
+    pub sigma_t: [f32; 3],
+    /// Fog colour terms that do not depend on the ray direction:
+    /// Σ β_s · (L_amb + E_sun / 4π for isotropic components) / β_t.
+    pub colour_const: [f32; 3],
+    /// Per non-isotropic component: its phase function and β_s · E_sun / β_t.
+    pub colour_sun: Vec<(Phase, [f32; 3])>,
+}
+
+/// A validated, compiled scene. Build it with [`Scene::new`]; it cannot be made invalid
+/// afterwards.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    desc: SceneDesc,
+    pub(crate) up: Vec3,
+    pub(crate) axis: UpAxis,
+    pub(crate) layers: Vec<LayerPlan>,
+    /// Unit vector toward the sun, if a sun lights a non-isotropic component.
+    pub(crate) sun_dir: Option<Vec3>,
+}
+
+fn check_finite(field: impl FnOnce() -> String, v: f32) -> Result<(), SceneError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(SceneError::NonFinite {
+            field: field(),
+            value: v,
+        })
+    }
+}
+
+fn check_rgb_nonneg(field: &str, v: Vec3) -> Result<(), SceneError> {
+    for (i, x) in v.to_array().into_iter().enumerate() {
+        check_finite(|| format!("{field}[{i}]"), x)?;
+        if x < 0.0 {
+            return Err(SceneError::Negative {
+                field: format!("{field}[{i}]"),
+                value: x,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Normalizes a finite non-zero vector without overflow or underflow.
+pub(crate) fn normalize_robust(field: &str, v: Vec3) -> Result<Vec3, SceneError> {
+    for (i, x) in v.to_array().into_iter().enumerate() {
+        check_finite(|| format!("{field}[{i}]"), x)?;
+    }
+    let m = v.abs().max_element();
+    if m == 0.0 {
+        return Err(SceneError::ZeroVector {
+            field: field.to_string(),
+        });
+    }
+    let w = v.as_dvec3() / m as f64;
+    Ok((w / w.length()).as_vec3())
+}
+
+impl Scene {
+    /// Validates and compiles a scene description.
+    ///
+    /// ```
+    /// use analytic_fog::{Scene, SceneDesc, HeightFogLayer, Component, Phase};
+    /// use glam::Vec3;
+    /// let desc = SceneDesc {
+    ///     height_fog: vec![HeightFogLayer {
+    ///         base_height: 0.0,
+    ///         falloff: -1.0 / 0.0, // not finite: rejected
+    ///         components: vec![Component {
+    ///             scattering: Vec3::splat(0.02),
+    ///             absorption: Vec3::ZERO,
+    ///             phase: Phase::Isotropic,
+    ///         }],
+    ///     }],
+    ///     ..SceneDesc::default()
+    /// };
+    /// let err = Scene::new(desc).unwrap_err();
+    /// assert_eq!(err.to_string(), "height_fog[0].falloff: must be finite, got -inf");
+    /// ```
+    pub fn new(desc: SceneDesc) -> Result<Scene, SceneError> {
+        let up = normalize_robust("up", desc.up)?;
+        // Axis-aligned up: exact when the normalized vector is exactly ±e_i.
+        let axis = (0..3)
+            .find(|&i| up[i].abs() == 1.0)
+            .map(UpAxis::Axis)
+            .unwrap_or(UpAxis::General);
+        let up_sign = match axis {
+            UpAxis::Axis(i) => up[i],
+            UpAxis::General => 1.0,
+        };
+
+        let lighting = &desc.lighting;
+        check_rgb_nonneg("lighting.ambient", lighting.ambient)?;
+        let sun = match &lighting.sun {
+            Some(s) => {
+                let d = normalize_robust("lighting.sun.direction", s.direction)?;
+                check_rgb_nonneg("lighting.sun.radiance", s.radiance)?;
+                Some((d, s.radiance))
+            }
+            None => None,
+        };
+
+        let mut layers = Vec::with_capacity(desc.height_fog.len());
+        let mut any_directional = false;
+        for (li, layer) in desc.height_fog.iter().enumerate() {
+            let f = |name: &str| format!("height_fog[{li}].{name}");
+            check_finite(|| f("base_height"), layer.base_height)?;
+            check_finite(|| f("falloff"), layer.falloff)?;
+            if layer.components.is_empty() {
+                return Err(SceneError::Empty {
+                    field: f("components"),
+                });
+            }
+            let mut beta_s = Vec3::ZERO;
+            let mut beta_t = glam::DVec3::ZERO;
+            for (ci, c) in layer.components.iter().enumerate() {
+                let cf = |name: &str| format!("height_fog[{li}].components[{ci}].{name}");
+                check_rgb_nonneg(&cf("scattering"), c.scattering)?;
+                check_rgb_nonneg(&cf("absorption"), c.absorption)?;
+                c.phase.validate(&cf("phase"))?;
+                beta_s += c.scattering;
+                beta_t += c.scattering.as_dvec3() + c.absorption.as_dvec3();
+            }
+            let _ = beta_s;
+            // Extinction per channel, rounded once from the f64 sum.
+            let sigma_t = beta_t.as_vec3().to_array();
+            for (i, s) in sigma_t.iter().enumerate() {
+                if !s.is_finite() {
+                    return Err(SceneError::NonFinite {
+                        field: format!("height_fog[{li}].components: extinction[{i}]"),
+                        value: *s,
+                    });
+                }
+            }
+            // Fog colour terms, in f64 and rounded once.
+            let inv_bt = beta_t
+                .to_array()
+                .map(|b| if b > 0.0 { 1.0 / b } else { 0.0 });
+            let amb = lighting.ambient.as_dvec3().to_array();
+            let (esun, _) = match sun {
+                Some((d, e)) => (e.as_dvec3().to_array(), Some(d)),
+                None => ([0.0; 3], None),
+            };
+            let mut colour_const = [0.0f64; 3];
+            let mut colour_sun: Vec<(Phase, [f32; 3])> = Vec::new();
+            for c in &layer.components {
+                let bs = c.scattering.as_dvec3().to_array();
+                let mut sun_k = [0.0f64; 3];
+                for ch in 0..3 {
+                    colour_const[ch] += bs[ch] * amb[ch] * inv_bt[ch];
+                    sun_k[ch] = bs[ch] * esun[ch] * inv_bt[ch];
+                }
+                if sun.is_some() && sun_k.iter().any(|&k| k > 0.0) {
+                    match c.phase {
+                        Phase::Isotropic => {
+                            for ch in 0..3 {
+                                colour_const[ch] += sun_k[ch] / (4.0 * core::f64::consts::PI);
+                            }
+                        }
+                        phase => {
+                            // Merge components that share a phase function.
+                            let k32 = sun_k.map(|k| k as f32);
+                            if let Some(e) = colour_sun.iter_mut().find(|(p, _)| *p == phase) {
+                                for ch in 0..3 {
+                                    e.1[ch] = (e.1[ch] as f64 + sun_k[ch]) as f32;
+                                }
+                            } else {
+                                colour_sun.push((phase, k32));
+                            }
+                        }
+                    }
+                }
+            }
+            for (i, v) in colour_const.iter().enumerate() {
+                if !(v.is_finite() && (*v as f32).is_finite()) {
+                    return Err(SceneError::NonFinite {
+                        field: format!("height_fog[{li}]: fog colour[{i}]"),
+                        value: *v as f32,
+                    });
+                }
+            }
+            any_directional |= !colour_sun.is_empty();
+            let b = layer.falloff * up_sign;
+            let h0 = layer.base_height * up_sign;
+            layers.push(LayerPlan {
+                h0,
+                b,
+                b_split: Split::of(b),
+                sigma: sigma_t.map(Split::of),
+                sigma_t,
+                colour_const: colour_const.map(|v| v as f32),
+                colour_sun,
+            });
+        }
+
+        Ok(Scene {
+            up,
+            axis,
+            layers,
+            sun_dir: if any_directional {
+                sun.map(|(d, _)| d)
+            } else {
+                None
+            },
+            desc,
+        })
+    }
+
+    /// The description this scene was built from.
+    pub fn desc(&self) -> &SceneDesc {
+        &self.desc
+    }
+
+    /// The normalized up vector.
+    pub fn up(&self) -> Vec3 {
+        self.up
+    }
+
+    /// True if every layer's extinction is the same in all three channels (one
+    /// exponential per ray instead of three).
+    pub fn is_grey(&self) -> bool {
+        self.layers
+            .iter()
+            .all(|l| l.sigma_t[0] == l.sigma_t[1] && l.sigma_t[1] == l.sigma_t[2])
+    }
+
+    /// True if the scene's in-scattering depends on the ray direction (a sun lighting a
+    /// non-isotropic component).
+    pub fn has_directional_light(&self) -> bool {
+        self.sun_dir.is_some()
+    }
+}
