@@ -1,1 +1,0 @@
-//! Independent f64 reference (placeholder, replaced below).
