@@ -1,1 +1,222 @@
-fn main() {}
+//! Height fog throughput: x8, scalar and the seeds' naive formula, on the two data sets of
+//! `../shared/peers/c-libmvec/height_fog.c` (same generator, same seed, same medium), in
+//! cache (64K rays) and streaming (16M rays), single thread and rayon, RGB transmittance
+//! alone and full radiance.
+//!
+//! `cargo bench --bench height_fog` (all), or a filter such as
+//! `cargo bench --bench height_fog -- transmittance_rgb`.
+//! Set `FOG_BENCH_STREAM=0` to skip the 16M-ray groups.
+
+use analytic_fog::{
+    Component, HeightFogLayer, Lighting, Outputs, Phase, Rays, Scene, SceneDesc, Sun,
+};
+use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use glam::Vec3;
+use rayon::prelude::*;
+use std::time::Duration;
+
+/// The peer's medium: sigma_t = beta_rgb * exp(-b * (y - h0)), b = 0.1, h0 = 0.
+const B: f32 = 0.1;
+const BETA: [f32; 3] = [0.02, 0.03, 0.05];
+
+/// The rays of one data set, structure of arrays.
+pub struct RaySet {
+    pub o: [Vec<f32>; 3],
+    pub d: [Vec<f32>; 3],
+    pub t: Vec<f32>,
+}
+
+/// The C peer's xorshift generator and data sets, reproduced exactly (the peer only
+/// uses oy, dy and t; ox = oz = 0 and dx = sqrt(1 - dy^2), dz = 0 make the same rays unit
+/// length in 3-D).
+pub fn make(n: usize, extreme: bool) -> RaySet {
+    let mut s: u64 = 88172645463325252;
+    let mut uni = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        ((s >> 40) as f64 * (1.0 / 16777216.0)) as f32
+    };
+    let mut r = RaySet {
+        o: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
+        d: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
+        t: vec![0.0; n],
+    };
+    for i in 0..n {
+        let y = uni() * 10.0;
+        let mut u = uni() * 2.0 - 1.0;
+        let mut d = uni() * 1000.0;
+        if extreme && (i & 7) == 0 {
+            u = (uni() * 2.0 - 1.0) * 1e-6;
+            d = uni() * 1e7;
+        }
+        if !extreme && u < 0.0 && -y / u < d {
+            d = -y / u;
+        }
+        r.o[1][i] = y;
+        r.d[1][i] = u;
+        r.d[0][i] = (1.0 - u * u).max(0.0).sqrt();
+        r.t[i] = d;
+    }
+    r
+}
+
+fn scene(full: bool) -> Scene {
+    let lighting = if full {
+        Lighting {
+            ambient: Vec3::new(0.5, 0.6, 0.7),
+            sun: Some(Sun {
+                direction: Vec3::new(0.3, 0.4, -0.87),
+                radiance: Vec3::new(20.0, 18.0, 15.0),
+            }),
+        }
+    } else {
+        Lighting::default()
+    };
+    Scene::new(SceneDesc {
+        height_fog: vec![HeightFogLayer {
+            base_height: 0.0,
+            falloff: B,
+            components: vec![Component {
+                scattering: Vec3::from_array(BETA),
+                absorption: Vec3::ZERO,
+                phase: if full {
+                    Phase::HenyeyGreenstein(0.7)
+                } else {
+                    Phase::Isotropic
+                },
+            }],
+        }],
+        lighting,
+        ..SceneDesc::default()
+    })
+    .unwrap()
+}
+
+struct Out {
+    v: Vec<Vec<f32>>,
+}
+
+impl Out {
+    fn new(n: usize) -> Out {
+        Out {
+            v: (0..9).map(|_| vec![0.0; n]).collect(),
+        }
+    }
+    fn outputs(&mut self, full: bool) -> Outputs<'_> {
+        let [a, b, c, d, e, f, ..] = &mut self.v[..] else {
+            unreachable!()
+        };
+        Outputs {
+            tau: None,
+            transmittance: Some([a, b, c]),
+            inscattering: if full { Some([d, e, f]) } else { None },
+        }
+    }
+}
+
+fn rays<'a>(r: &'a RaySet, unit: bool) -> Rays<'a> {
+    Rays::new(&r.o[0], &r.o[1], &r.o[2], &r.d[0], &r.d[1], &r.d[2], &r.t)
+        .unwrap()
+        .with_unit_directions(unit)
+}
+
+/// Seed 000's two-branch formula in f32 with std's exp, as a renderer author writes it
+/// first: tau = A/(B dz) (e^(-B oz) - e^(-B (oz + dz t))), or A e^(-B oz) t for dz = 0.
+fn naive_seed(r: &RaySet, out: &mut [Vec<f32>]) {
+    let (oy, dy, t) = (&r.o[1], &r.d[1], &r.t);
+    let [tr, tg, tb, ..] = out else {
+        unreachable!()
+    };
+    for i in 0..t.len() {
+        let geo = if dy[i] != 0.0 {
+            ((-B * oy[i]).exp() - (-B * (oy[i] + dy[i] * t[i])).exp()) / (B * dy[i])
+        } else {
+            (-B * oy[i]).exp() * t[i]
+        };
+        tr[i] = (-BETA[0] * geo).exp();
+        tg[i] = (-BETA[1] * geo).exp();
+        tb[i] = (-BETA[2] * geo).exp();
+    }
+}
+
+fn in_cache(c: &mut Criterion) {
+    let n = 65536;
+    for (full, group) in [(false, "transmittance_rgb"), (true, "radiance")] {
+        let sc = scene(full);
+        let mut g = c.benchmark_group(group);
+        g.throughput(Throughput::Elements(n as u64));
+        g.warm_up_time(Duration::from_millis(500));
+        g.measurement_time(Duration::from_secs(2));
+        for (set, extreme) in [("typical", false), ("extreme", true)] {
+            let r = make(n, extreme);
+            let mut o = Out::new(n);
+            g.bench_function(BenchmarkId::new("x8_unit", set), |b| {
+                b.iter(|| sc.evaluate(&rays(&r, true), o.outputs(full)).unwrap())
+            });
+            g.bench_function(BenchmarkId::new("x8_general", set), |b| {
+                b.iter(|| sc.evaluate(&rays(&r, false), o.outputs(full)).unwrap())
+            });
+            g.bench_function(BenchmarkId::new("scalar", set), |b| {
+                b.iter(|| {
+                    sc.evaluate_scalar(&rays(&r, true), o.outputs(full))
+                        .unwrap()
+                })
+            });
+            g.bench_function(BenchmarkId::new("x8_rayon", set), |b| {
+                b.iter(|| sc.evaluate_par(&rays(&r, true), o.outputs(full)).unwrap())
+            });
+            if !full {
+                g.bench_function(BenchmarkId::new("naive_seed", set), |b| {
+                    b.iter(|| naive_seed(black_box(&r), &mut o.v))
+                });
+            }
+        }
+        g.finish();
+    }
+}
+
+/// 16M rays: the rayon path against a parallel plain copy of the same bytes (the three
+/// inputs the unit-direction kernel reads, the three outputs it writes).
+fn streaming(c: &mut Criterion) {
+    if std::env::var("FOG_BENCH_STREAM").as_deref() == Ok("0") {
+        return;
+    }
+    let n = 16 << 20;
+    let sc = scene(false);
+    let mut g = c.benchmark_group("streaming_16m");
+    g.throughput(Throughput::Elements(n as u64));
+    g.sample_size(10);
+    g.warm_up_time(Duration::from_millis(500));
+    g.measurement_time(Duration::from_secs(6));
+    for (set, extreme) in [("typical", false), ("extreme", true)] {
+        let r = make(n, extreme);
+        let mut o = Out::new(n);
+        g.bench_function(BenchmarkId::new("x8_rayon", set), |b| {
+            b.iter(|| sc.evaluate_par(&rays(&r, true), o.outputs(false)).unwrap())
+        });
+        g.bench_function(BenchmarkId::new("x8_single", set), |b| {
+            b.iter(|| sc.evaluate(&rays(&r, true), o.outputs(false)).unwrap())
+        });
+        if !extreme {
+            g.bench_function(BenchmarkId::new("copy_rayon", set), |b| {
+                b.iter(|| {
+                    let [a, bb, cc, ..] = &mut o.v[..] else {
+                        unreachable!()
+                    };
+                    let src = [&r.o[1], &r.d[1], &r.t];
+                    for (dst, s) in [a, bb, cc].into_iter().zip(src) {
+                        dst.par_chunks_mut(4096)
+                            .zip(s.par_chunks(4096))
+                            .for_each(|(d, s)| d.copy_from_slice(s));
+                    }
+                    black_box(&o.v[0][0]);
+                })
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, in_cache, streaming);
+criterion_main!(benches);

@@ -7,7 +7,7 @@
 //! (no dot product for ±X/±Y/±Z), unit directions (no |d|), and the outputs wanted, so
 //! that work a call does not need is compiled out rather than skipped at run time.
 
-use crate::math::{exp, ldexp, Lane};
+use crate::math::{exp_neg, ldexp, pow2_pair, Lane};
 use crate::medium::height_fog::{direction_norm, layer_depth, RayGeom};
 use crate::ray::{Outputs, Rays};
 use crate::scene::{LayerPlan, Scene, UpAxis};
@@ -115,14 +115,26 @@ pub(crate) fn eval_packet<
             let tau = ldexp(gm * L::splat(s.m), ge + L::splat(s.e));
             out.tau = [tau; 3];
             if WANT_T || WANT_L {
-                out.trans = [exp(tau.neg()); 3];
+                out.trans = [exp_neg(tau); 3];
+            }
+        } else if let Some((e, m)) = layer.shared_scale {
+            // One pair of scale factors for the three channels.
+            // gm·s1 is exact (normal); one rounding by the channel, one (only into the
+            // subnormal range) by s2.
+            let (s1, s2) = pow2_pair(ge + L::splat(e));
+            let g1 = gm * s1;
+            for ch in 0..3 {
+                out.tau[ch] = g1 * L::splat(m[ch]) * s2;
+                if WANT_T || WANT_L {
+                    out.trans[ch] = exp_neg(out.tau[ch]);
+                }
             }
         } else {
             for ch in 0..3 {
                 let s = layer.sigma[ch];
                 out.tau[ch] = ldexp(gm * L::splat(s.m), ge + L::splat(s.e));
                 if WANT_T || WANT_L {
-                    out.trans[ch] = exp(out.tau[ch].neg());
+                    out.trans[ch] = exp_neg(out.tau[ch]);
                 }
             }
         }
@@ -153,7 +165,7 @@ pub(crate) fn eval_packet<
     }
     if WANT_T || WANT_L {
         for ch in 0..3 {
-            out.trans[ch] = exp(out.tau[ch].neg());
+            out.trans[ch] = exp_neg(out.tau[ch]);
         }
     }
     if WANT_L {
@@ -180,7 +192,7 @@ pub(crate) fn eval_packet<
 #[inline(always)]
 fn load<L: Lane>(s: &[f32], i: usize, wanted: bool) -> L {
     if wanted {
-        L::load(&s[i..])
+        L::load(&s[i..i + L::LANES])
     } else {
         L::splat(0.0)
     }
@@ -190,7 +202,7 @@ fn load<L: Lane>(s: &[f32], i: usize, wanted: bool) -> L {
 fn store<L: Lane>(v: [L; 3], dst: &mut Option<crate::ray::RgbSlices<'_>>, i: usize) {
     if let Some(d) = dst {
         for ch in 0..3 {
-            v[ch].store(&mut d[ch][i..]);
+            v[ch].store(&mut d[ch][i..i + L::LANES]);
         }
     }
 }
@@ -205,12 +217,24 @@ fn run<L: Lane, const AXIS: usize, const UNIT: bool, const WANT_T: bool, const W
     let n = rays.len();
     let (ro, rd) = reads::<AXIS, UNIT>(scene, WANT_L);
     let full = n - n % L::LANES;
+    // Slices cut to `full` up front, so the loop's indexing needs no bounds checks.
+    let (o0, o1, o2) = (&rays.o[0][..full], &rays.o[1][..full], &rays.o[2][..full]);
+    let (d0, d1, d2) = (&rays.d[0][..full], &rays.d[1][..full], &rays.d[2][..full]);
+    let t = &rays.t[..full];
     let mut i = 0;
-    while i < full {
+    while i + L::LANES <= full {
         let p = PacketIn {
-            o: [0, 1, 2].map(|c| load::<L>(rays.o[c], i, ro[c])),
-            d: [0, 1, 2].map(|c| load::<L>(rays.d[c], i, rd[c])),
-            t: L::load(&rays.t[i..]),
+            o: [
+                load::<L>(o0, i, ro[0]),
+                load::<L>(o1, i, ro[1]),
+                load::<L>(o2, i, ro[2]),
+            ],
+            d: [
+                load::<L>(d0, i, rd[0]),
+                load::<L>(d1, i, rd[1]),
+                load::<L>(d2, i, rd[2]),
+            ],
+            t: L::load(&t[i..i + L::LANES]),
         };
         let r = eval_packet::<L, AXIS, UNIT, WANT_T, WANT_L>(scene, &p);
         store(r.tau, &mut out.tau, i);

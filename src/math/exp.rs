@@ -20,15 +20,32 @@ pub(crate) const LN2_LO: f32 = 1.428_606_765_330_187e-6;
 /// `Q(r) = (e^r - 1 - r) / r^2` on [-ln2/2, ln2/2], degree 4.
 #[inline(always)]
 fn q4<L: Lane>(r: L) -> L {
+    q4_signed(r, 1.0)
+}
+
+/// `Q(sign * w)`: with `sign = -1` the odd coefficients are negated at compile time, so a
+/// caller holding `w = -r` needs no negation.
+#[inline(always)]
+pub(crate) fn q4_signed<L: Lane>(w: L, sign: f32) -> L {
     let c4 = L::splat(0.001_392_617_6);
-    let c3 = L::splat(0.008_363_173);
+    let c3 = L::splat(sign * 0.008_363_173);
     let c2 = L::splat(0.041_666_556);
-    let c1 = L::splat(0.166_665_78);
+    let c1 = L::splat(sign * 0.166_665_78);
     let c0 = L::splat(0.5);
-    c4.mul_add(r, c3)
-        .mul_add(r, c2)
-        .mul_add(r, c1)
-        .mul_add(r, c0)
+    c4.mul_add(w, c3)
+        .mul_add(w, c2)
+        .mul_add(w, c1)
+        .mul_add(w, c0)
+}
+
+/// Cody–Waite reduction of a non-negative argument for `e^(-x)`: returns `(k, w)` with
+/// `-x = k*ln2 - w`, i.e. `w = x + k*ln2 = -r`.
+#[inline(always)]
+pub(crate) fn reduce_ln2_neg<L: Lane>(x: L) -> (L, L) {
+    let k = (x * L::splat(-LOG2E)).round();
+    let w = k.mul_add(L::splat(LN2_HI), x);
+    let w = k.mul_add(L::splat(LN2_LO), w);
+    (k, w)
 }
 
 /// Cody–Waite reduction: returns `(k, r)` with `x = k*ln2 + r`.
@@ -42,7 +59,7 @@ pub(crate) fn reduce_ln2<L: Lane>(x: L) -> (L, L) {
 
 /// `e^r` for `r` in [-ln2/2, ln2/2].
 #[inline(always)]
-fn exp_reduced<L: Lane>(r: L) -> L {
+pub(crate) fn exp_reduced<L: Lane>(r: L) -> L {
     (r * r).mul_add(q4(r), r) + L::splat(1.0)
 }
 

@@ -15,11 +15,17 @@ use super::Lane;
 /// `Q(r) = (e^r - 1 - r) / r^2` on [-ln2/2, ln2/2], degree 5.
 #[inline(always)]
 fn q5<L: Lane>(r: L) -> L {
-    let c5 = L::splat(0.000_198_909_81);
+    q5_signed(r, 1.0)
+}
+
+/// `Q(sign * w)` (odd coefficients negated at compile time for `sign = -1`).
+#[inline(always)]
+pub(crate) fn q5_signed<L: Lane>(r: L, sign: f32) -> L {
+    let c5 = L::splat(sign * 0.000_198_909_81);
     let c4 = L::splat(0.001_393_364_2);
-    let c3 = L::splat(0.008_333_310_5);
+    let c3 = L::splat(sign * 0.008_333_310_5);
     let c2 = L::splat(0.041_666_467);
-    let c1 = L::splat(0.166_666_67);
+    let c1 = L::splat(sign * 0.166_666_67);
     let c0 = L::splat(0.5);
     c5.mul_add(r, c4)
         .mul_add(r, c3)

@@ -36,6 +36,10 @@ pub trait Lane:
 
     /// `self * a + b`, rounded once where the target has FMA.
     fn mul_add(self, a: Self, b: Self) -> Self;
+    /// `-(self * a) + b`, rounded once where the target has FMA.
+    fn neg_mul_add(self, a: Self, b: Self) -> Self;
+    /// `self * a - b`, rounded once where the target has FMA.
+    fn mul_sub(self, a: Self, b: Self) -> Self;
     /// `a < b ? a : b` (x86 `minps` semantics: the second operand wins on NaN).
     fn min(self, b: Self) -> Self;
     /// `a > b ? a : b` (x86 `maxps` semantics: the second operand wins on NaN).
@@ -78,8 +82,6 @@ pub trait Lane:
 /// 1.5 * 2^23: adding it to an integer-valued float in [-2^22, 2^22] leaves the integer
 /// in the low mantissa bits.
 const ROUND_MAGIC: f32 = 12_582_912.0;
-/// 2^23, the float whose low mantissa bits read as an integer directly.
-const TWO23: f32 = 8_388_608.0;
 
 impl Lane for f32 {
     type Mask = bool;
@@ -106,6 +108,28 @@ impl Lane for f32 {
         #[cfg(not(target_feature = "fma"))]
         {
             self * a + b
+        }
+    }
+    #[inline(always)]
+    fn mul_sub(self, a: Self, b: Self) -> Self {
+        #[cfg(target_feature = "fma")]
+        {
+            f32::mul_add(self, a, -b)
+        }
+        #[cfg(not(target_feature = "fma"))]
+        {
+            self * a - b
+        }
+    }
+    #[inline(always)]
+    fn neg_mul_add(self, a: Self, b: Self) -> Self {
+        #[cfg(target_feature = "fma")]
+        {
+            f32::mul_add(-self, a, b)
+        }
+        #[cfg(not(target_feature = "fma"))]
+        {
+            b - self * a
         }
     }
     #[inline(always)]
@@ -186,7 +210,7 @@ impl Lane for f32 {
     }
     #[inline(always)]
     fn exponent_field(self) -> Self {
-        f32::from_bits(((self.to_bits() >> 23) & 0xff) | TWO23.to_bits()) - TWO23
+        ((self.to_bits() >> 23) & 0xff) as f32
     }
     #[inline(always)]
     fn with_unit_exponent(self) -> Self {
@@ -223,6 +247,14 @@ impl Lane for f32x8 {
     #[inline(always)]
     fn mul_add(self, a: Self, b: Self) -> Self {
         f32x8::mul_add(self, a, b)
+    }
+    #[inline(always)]
+    fn mul_sub(self, a: Self, b: Self) -> Self {
+        f32x8::mul_sub(self, a, b)
+    }
+    #[inline(always)]
+    fn neg_mul_add(self, a: Self, b: Self) -> Self {
+        f32x8::mul_neg_add(self, a, b)
     }
     #[inline(always)]
     fn min(self, b: Self) -> Self {
@@ -292,8 +324,8 @@ impl Lane for f32x8 {
     }
     #[inline(always)]
     fn exponent_field(self) -> Self {
-        let bits = (as_i(self) >> 23) & i32x8::splat(0xff);
-        as_f(bits | i32x8::splat(TWO23.to_bits() as i32)) - f32x8::splat(TWO23)
+        let field: i32x8 = (as_i(self) >> 23) & i32x8::splat(0xff);
+        field.round_float()
     }
     #[inline(always)]
     fn with_unit_exponent(self) -> Self {

@@ -4,14 +4,26 @@
 //! header. The exhaustive sweeps that measure them are in `tests/exhaustive.rs`
 //! (`cargo test --release --test exhaustive -- --ignored`).
 
+mod asinh;
+mod erf;
 mod exp;
+mod exp_neg;
 mod expm1;
+mod exprel;
 mod frexp;
 mod lane;
 mod ldexp;
+mod log;
+mod log1p;
 
+pub use asinh::asinh;
+pub use erf::{erf, erfc};
 pub use exp::{exp, exp_split};
+pub use exp_neg::exp_neg;
 pub use expm1::expm1;
+pub use exprel::exprel_neg;
 pub use frexp::frexp;
 pub use lane::Lane;
-pub use ldexp::ldexp;
+pub use ldexp::{ldexp, pow2_pair};
+pub use log::{log, log_scaled};
+pub use log1p::log1p;

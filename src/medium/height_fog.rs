@@ -24,7 +24,7 @@
 //! vector the height dot(o, up) is rounded relative to |o|, adding |b|·|o|·2⁻²⁴ to the
 //! condition.
 
-use crate::math::{exp_split, expm1, frexp, Lane};
+use crate::math::{exp_split, exprel_neg, frexp, Lane};
 use crate::scene::LayerPlan;
 
 /// Per-ray quantities shared by all layers.
@@ -49,12 +49,9 @@ pub(crate) struct RayGeom<L> {
 /// Exponent given to t = +∞: large enough that b·u·t is beyond any finite product of f32
 /// exponents, small enough that sums of such exponents stay exact in f32.
 const INF_EXPONENT: f32 = 1000.0;
-/// The exponent of Δ is clamped to this before φ is evaluated; beyond it φ = 1/Δ exactly
-/// in f32 and the rest of 1/Δ is carried in the exponent.
-const PHI_MAX_EXP: f32 = 16.0;
-/// Bound on |b·y0| and |Δ| in the dense-end exponent: far beyond saturation, and their
-/// sum cannot overflow.
-const EXPONENT_CLAMP: f32 = 1.237_940_039_285_380_3e27; // 2^90
+/// The exponent of Δ is clamped to this before φ is evaluated; beyond it (|Δ| ≥ 256)
+/// φ = 1/Δ exactly in f32 and the rest of 1/Δ is carried in the exponent.
+const PHI_MAX_EXP: f32 = 8.0;
 
 impl<L: Lane> RayGeom<L> {
     /// `y`: height dot(o, up); `u`: dot(d, up); `t`: segment end; `norm`: (n_m, n_e) of |d|.
@@ -96,25 +93,30 @@ pub(crate) fn direction_norm<L: Lane>(d: [L; 3]) -> ((L, L), [L; 3]) {
 }
 
 /// The geometric part of one layer's optical depth, G = τ / σ0, as `(m, e)` with
-/// G = m · 2^e, |m| in [2^-45, 2^5] or 0 (the precondition of [`crate::math::ldexp`]).
+/// G = m · 2^e, |m| in [2^-38, 2^5] or 0: n_m ≥ 2^-23 (subnormal |d|), t_m ≥ 1,
+/// φ ≥ 2^-14, e^r ≥ 0.7. Times a channel's mantissa (≥ 2^-16 relative to the largest
+/// channel) this stays inside the precondition of [`crate::math::ldexp`].
 #[inline(always)]
 pub(crate) fn layer_depth<L: Lane>(layer: &LayerPlan, g: &RayGeom<L>) -> (L, L) {
-    let big = L::splat(3.0e38);
-    let y0 = (g.y - L::splat(layer.h0)).clamp(big.neg(), big);
-    let a0 = (L::splat(layer.b) * y0).clamp(L::splat(-EXPONENT_CLAMP), L::splat(EXPONENT_CLAMP));
+    if layer.b == 0.0 {
+        // Homogeneous layer: G = |d| · t.
+        return (g.n_m * g.t_m + g.guard, g.n_e + g.t_e);
+    }
+    // b != 0: b·y0 may be ±inf (|y0| beyond f32), never NaN.
+    let a0 = L::splat(layer.b) * (g.y - L::splat(layer.h0));
 
     // Δ = b·u·t as mantissa (|dm| in [1, 8) or 0) and exponent.
     let dm = L::splat(layer.b_split.m) * g.u_m * g.t_m;
     let de = L::splat(layer.b_split.e) + g.u_e + g.t_e;
-    let adm = dm.abs();
 
-    // φ(|Δ|) with |Δ| clamped to < 2^19; the rest of 1/|Δ| goes to the exponent.
-    let dc = (adm * L::pow2i(de.clamp(L::splat(-100.0), L::splat(PHI_MAX_EXP))))
+    // φ(|Δ|) with |Δ| clamped to < 2^11; the rest of 1/|Δ| goes to the exponent.
+    let dc = (dm.abs() * L::pow2i(de.clamp(L::splat(-100.0), L::splat(PHI_MAX_EXP))))
         .max(L::splat(7.888_609e-31)); // 2^-100: φ = 1 below it
-    let phi = expm1(dc.neg()).neg() / dc;
-    let phi_e = (de - L::splat(PHI_MAX_EXP)).max(L::splat(0.0)).neg();
+    let phi = exprel_neg(dc);
+    let phi_e = (L::splat(PHI_MAX_EXP) - de).min(L::splat(0.0));
 
-    // The exponent at the denser end: b·y0 + min(Δ, 0), with Δ clamped to |Δ| < 2^90.
+    // The exponent at the denser end: b·y0 + min(Δ, 0), with Δ clamped to |Δ| < 2^90
+    // (finite, so a0 = ±inf gives ±inf, not NaN).
     let dsigned = dm * L::pow2i(de.clamp(L::splat(-126.0), L::splat(87.0)));
     let u_min = a0 + dsigned.min(L::splat(0.0));
     let (em, ek) = exp_split(u_min.neg());
