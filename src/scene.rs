@@ -142,6 +142,11 @@ pub(crate) struct LayerPlan {
     pub sigma: [Split; 3],
     /// The extinction per channel.
     pub sigma_t: [f32; 3],
+    /// When every non-zero channel is within 2^16 of the largest: that channel's exponent
+    /// and each channel's extinction divided by 2^exponent, so that the three optical
+    /// depths share one pair of scale factors (two multiplies per channel instead of a
+    /// saturating ldexp each). `None` for wider ranges (e.g. 1e-20 next to 1e20).
+    pub shared_scale: Option<(f32, [f32; 3])>,
     /// Fog colour terms that do not depend on the ray direction:
     /// Σ β_s · (L_amb + E_sun / 4π for isotropic components) / β_t.
     pub colour_const: [f32; 3],
@@ -198,6 +203,26 @@ pub(crate) fn normalize_robust(field: &str, v: Vec3) -> Result<Vec3, SceneError>
     }
     let w = v.as_dvec3() / m as f64;
     Ok((w / w.length()).as_vec3())
+}
+
+/// See [`LayerPlan::shared_scale`].
+fn shared_scale(sigma: [f32; 3]) -> Option<(f32, [f32; 3])> {
+    let max = sigma.iter().cloned().fold(0.0f32, f32::max);
+    if max == 0.0 {
+        return None;
+    }
+    let e = Split::of(max).e;
+    let scale = 2.0f64.powi(-(e as i32));
+    let m = sigma.map(|s| (s as f64 * scale) as f32);
+    let ok = m
+        .iter()
+        .all(|&x| x == 0.0 || (x >= 1.0 / 65536.0 && x < 2.0));
+    // The division by a power of two must be exact (no subnormal channel values).
+    let exact = m
+        .iter()
+        .zip(sigma)
+        .all(|(&x, s)| (x as f64 / scale) as f32 == s);
+    (ok && exact).then_some((e, m))
 }
 
 impl Scene {
@@ -331,6 +356,7 @@ impl Scene {
                 b,
                 b_split: Split::of(b),
                 sigma: sigma_t.map(Split::of),
+                shared_scale: shared_scale(sigma_t),
                 sigma_t,
                 colour_const: colour_const.map(|v| v as f32),
                 colour_sun,
