@@ -8,7 +8,7 @@
 //! that work a call does not need is compiled out rather than skipped at run time.
 
 use crate::math::{exp_neg, ldexp, pow2_pair, Lane};
-use crate::medium::height_fog::{direction_norm, layer_depth, RayGeom};
+use crate::medium::height_fog::{direction_norm, layer_depth, RayGeom, TWO_M64};
 use crate::ray::{Outputs, Rays};
 use crate::scene::{LayerPlan, Scene, UpAxis};
 use wide::f32x8;
@@ -38,8 +38,10 @@ pub(crate) fn reads<const AXIS: usize, const UNIT: bool>(
     scene: &Scene,
     want_l: bool,
 ) -> ([bool; 3], [bool; 3]) {
-    let all_d = !UNIT || (want_l && scene.sun_dir.is_some());
-    let mut o = [AXIS == GENERAL; 3];
+    // Fog volumes need the whole ray.
+    let vols = !scene.volumes.is_empty();
+    let all_d = !UNIT || (want_l && scene.sun_dir.is_some()) || vols;
+    let mut o = [AXIS == GENERAL || vols; 3];
     let mut d = [AXIS == GENERAL || all_d; 3];
     if AXIS < 3 {
         o[AXIS] = true;
@@ -83,7 +85,7 @@ pub(crate) fn eval_packet<
         insc: [zero; 3],
     };
     let layers = &scene.layers;
-    if layers.is_empty() {
+    if layers.is_empty() && scene.volumes.is_empty() {
         return out;
     }
 
@@ -92,20 +94,32 @@ pub(crate) fn eval_packet<
     } else {
         direction_norm(p.d)
     };
-    let (y, u) = if AXIS < 3 {
-        (p.o[AXIS], p.d[AXIS])
+    // Height, height · 2^-64, and u = dot(d, up) as u · 2^u_shift. For a general up,
+    // dot(o, up) and dot(d, up) overflow for finite o and d near f32::MAX (NaN for a
+    // finite ray, found by `tests/height_fog.rs`): the height is also formed at 2^-64
+    // scale, and u from the unit direction times n_m, with |d|'s exponent n_e carried
+    // apart (which also keeps u's precision for subnormal directions).
+    let (y, y_s, u, u_shift) = if AXIS < 3 {
+        (p.o[AXIS], p.o[AXIS] * L::splat(TWO_M64), p.d[AXIS], zero)
     } else {
         let up = scene.up.to_array();
-        (crate::light::dot3(p.o, up), crate::light::dot3(p.d, up))
+        let up_s = up.map(|c| c * TWO_M64);
+        let u = crate::light::dot3(dir, up) * norm.0;
+        (
+            crate::light::dot3(p.o, up),
+            crate::light::dot3(p.o, up_s),
+            u,
+            norm.1,
+        )
     };
-    let geom = RayGeom::new(y, u, p.t, norm);
+    let geom = RayGeom::new(y, y_s, u, u_shift, p.t, norm);
     let sun = if WANT_L {
         scene.sun_dir.map(|s| s.to_array())
     } else {
         None
     };
 
-    if layers.len() == 1 {
+    if layers.len() == 1 && scene.volumes.is_empty() {
         let layer = &layers[0];
         let (gm, ge) = layer_depth(layer, &geom);
         let grey = layer.sigma[0] == layer.sigma[1] && layer.sigma[1] == layer.sigma[2];
@@ -147,33 +161,85 @@ pub(crate) fn eval_packet<
         return out;
     }
 
-    // Several layers: optical depths add; the fog colour is the τ-weighted mix of the
-    // layers' colours (exact for one layer, an approximation otherwise). The weights are
-    // formed from the mantissa/exponent pairs relative to the largest exponent, so they
-    // stay finite where τ itself saturates.
-    // (No allocation: the second pass recomputes each layer's depth.)
+    eval_general::<L, UNIT>(scene, p, &geom, norm, &dir, sun, WANT_T, WANT_L)
+}
+
+/// Several layers and/or fog volumes. Not inlined: one copy per lane type and direction
+/// kind instead of one per kernel variant (the variants differ in what the single-layer
+/// fast path above leaves out; here the outputs are selected at run time, which costs a
+/// predictable branch per packet).
+///
+/// Optical depths add; the fog colour is the τ-weighted mix of the layers' (and volumes')
+/// colours (exact for one medium, an approximation otherwise). The weights are formed
+/// from the mantissa/exponent pairs relative to the largest exponent, so they stay finite
+/// where τ itself saturates. (No allocation: the second pass recomputes each layer's
+/// depth.)
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn eval_general<L: Lane, const UNIT: bool>(
+    scene: &Scene,
+    p: &PacketIn<L>,
+    geom: &RayGeom<L>,
+    norm: (L, L),
+    dir: &[L; 3],
+    sun: Option<[f32; 3]>,
+    want_t: bool,
+    want_l: bool,
+) -> PacketOut<L> {
+    let zero = L::splat(0.0);
+    let one = L::splat(1.0);
+    let mut out = PacketOut {
+        tau: [zero; 3],
+        trans: [one; 3],
+        insc: [zero; 3],
+    };
+    let layers = &scene.layers;
     let mut emax = [L::splat(-1.0e30); 3];
     for layer in layers {
-        let (gm, ge) = layer_depth(layer, &geom);
+        let (gm, ge) = layer_depth(layer, geom);
         for ch in 0..3 {
             let s = layer.sigma[ch];
             let x = gm * L::splat(s.m);
             let e = ge + L::splat(s.e);
             out.tau[ch] = out.tau[ch] + ldexp(x, e);
-            emax[ch] = L::select(x.ne(zero), e.max(emax[ch]), emax[ch]);
+            // The exponent of the value x · 2^e (not just of the pair), so that the
+            // largest weight below is in [1, 2): with weights down to 2^-38, w·c lost
+            // fog colours below ~2^-88 to underflow (found by `tests/height_fog.rs`).
+            let ex = e + x.exponent_field() - L::splat(127.0);
+            emax[ch] = L::select(x.ne(zero), ex.max(emax[ch]), emax[ch]);
         }
     }
-    if WANT_T || WANT_L {
+    // Fog volumes (medium::volume): their τ adds to the layers'; their colour joins the
+    // τ-weighted mix below (the same approximation as between layers).
+    let tau_h = out.tau;
+    let vol = if scene.volumes.is_empty() {
+        None
+    } else {
+        let v = if want_l {
+            crate::medium::volume::eval_volumes::<L, UNIT, true>(
+                scene, &p.o, &p.d, p.t, norm, dir, sun,
+            )
+        } else {
+            crate::medium::volume::eval_volumes::<L, UNIT, false>(
+                scene, &p.o, &p.d, p.t, norm, dir, sun,
+            )
+        };
+        for ch in 0..3 {
+            out.tau[ch] = out.tau[ch] + v.tau[ch];
+        }
+        Some(v)
+    };
+    if want_t || want_l {
         for ch in 0..3 {
             out.trans[ch] = exp_neg(out.tau[ch]);
         }
     }
-    if WANT_L {
+    if want_l {
         let mut num = [zero; 3];
         let mut den = [zero; 3];
         for layer in layers {
-            let (gm, ge) = layer_depth(layer, &geom);
-            let c = layer_colour(layer, sun, &dir);
+            let (gm, ge) = layer_depth(layer, geom);
+            let c = layer_colour(layer, sun, dir);
             for ch in 0..3 {
                 let s = layer.sigma[ch];
                 let w = ldexp(gm * L::splat(s.m), ge + L::splat(s.e) - emax[ch]);
@@ -183,6 +249,10 @@ pub(crate) fn eval_packet<
         }
         for ch in 0..3 {
             let colour = num[ch] / den[ch].max(L::splat(1e-30));
+            let colour = match &vol {
+                Some(v) => v.mix(ch, colour, tau_h[ch]),
+                None => colour,
+            };
             out.insc[ch] = colour * (one - out.trans[ch]);
         }
     }

@@ -72,6 +72,7 @@ mod serde_rgb;
 
 pub use error::{BatchError, SceneError};
 pub use light::Phase;
+pub use medium::volume::{Profile, Shape, Volume, MAX_CUTS};
 pub use ray::{Outputs, Rays, RgbSlices};
 pub use scene::{Component, HeightFogLayer, Lighting, Scene, SceneDesc, Sun};
 

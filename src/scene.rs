@@ -84,6 +84,10 @@ pub struct SceneDesc {
     /// Lighting (default: none, so the fog scatters no light).
     #[cfg_attr(feature = "serde", serde(default))]
     pub lighting: Lighting,
+    /// Fog volumes (default none): bounded shapes with analytic density profiles, and
+    /// cut-outs. Their optical depths add to the height fog's; see [`Volume`](crate::Volume).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub volumes: Vec<crate::Volume>,
 }
 
 #[allow(dead_code)]
@@ -101,6 +105,7 @@ impl Default for SceneDesc {
             up: Vec3::Y,
             height_fog: Vec::new(),
             lighting: Lighting::default(),
+            volumes: Vec::new(),
         }
     }
 }
@@ -164,6 +169,8 @@ pub struct Scene {
     pub(crate) layers: Vec<LayerPlan>,
     /// Unit vector toward the sun, if a sun lights a non-isotropic component.
     pub(crate) sun_dir: Option<Vec3>,
+    /// The compiled fog volumes.
+    pub(crate) volumes: crate::medium::volume::VolumeSet,
 }
 
 fn check_finite(field: impl FnOnce() -> String, v: f32) -> Result<(), SceneError> {
@@ -248,9 +255,12 @@ impl Scene {
     /// ```
     pub fn new(desc: SceneDesc) -> Result<Scene, SceneError> {
         let up = normalize_robust("up", desc.up)?;
-        // Axis-aligned up: exact when the normalized vector is exactly ±e_i.
+        // Axis-aligned up: exact when the normalized vector is exactly ±e_i. Both other
+        // components must be zero: a component below ~2^-12 leaves the f32 norm at exactly
+        // 1, and snapping (0, 1, 2e-4) to +Y would move every height by 2e-4 · |x|, far
+        // more than a rounding (found by `tests/height_fog.rs`, `any_finite_input`).
         let axis = (0..3)
-            .find(|&i| up[i].abs() == 1.0)
+            .find(|&i| up[i].abs() == 1.0 && up[(i + 1) % 3] == 0.0 && up[(i + 2) % 3] == 0.0)
             .map(UpAxis::Axis)
             .unwrap_or(UpAxis::General);
         let up_sign = match axis {
@@ -363,10 +373,14 @@ impl Scene {
             });
         }
 
+        let volumes = crate::medium::volume::compile(&desc.volumes, lighting.ambient, sun)?;
+        any_directional |= volumes.is_directional();
+
         Ok(Scene {
             up,
             axis,
             layers,
+            volumes,
             sun_dir: if any_directional {
                 sun.map(|(d, _)| d)
             } else {

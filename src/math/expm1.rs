@@ -7,7 +7,9 @@
 //! needs no special case, and for k = 0 it returns `expm1(r)` untouched (tiny and subnormal
 //! inputs come back exactly). No branch.
 //!
-//! Measured: max error 1 ULP (see `tests/exhaustive.rs`, every f32 in [-18, 89]).
+//! Measured (`tests/exhaustive.rs`, every f32, ±inf included): max error 1.439 ULP (at
+//! x = 17.001972, where the half-scale reconstruction rounds twice), 0.28% of inputs over
+//! 0.5 ULP.
 
 use super::exp::reduce_ln2;
 use super::Lane;
@@ -34,8 +36,8 @@ pub(crate) fn q5_signed<L: Lane>(r: L, sign: f32) -> L {
         .mul_add(r, c0)
 }
 
-/// `e^x - 1`, max error 1 ULP over all of f32; `-1` below -17.33, `+inf` above 88.72,
-/// NaN for NaN.
+/// `e^x - 1`, max error 1.44 ULP over all of f32; `-1` below -17.33, `+inf` above 88.72,
+/// NaN for NaN; `x` itself for tiny `x` (`-0` gives `+0`).
 #[inline(always)]
 pub fn expm1<L: Lane>(x: L) -> L {
     let x = x.clamp(L::splat(-30.0), L::splat(89.0));

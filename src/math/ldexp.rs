@@ -19,8 +19,9 @@ pub fn pow2_pair<L: Lane>(e: L) -> (L, L) {
 
 /// `m * 2^e` for `|m|` in [2^-62, 2^39] or `m = 0`, and any integer-valued `e` (even far
 /// outside the f32 range): overflows to `±inf` and underflows to `±0` exactly where the
-/// true product does, with one rounding for normal results and at most two (an error
-/// below 2^-149) for subnormal ones.
+/// true product does, with one rounding: `m * 2^e1` is exact and normal, so the result is
+/// the correctly rounded product, subnormal results included (verified by
+/// `tests/exhaustive.rs` for every such `m`, sign of zero and saturation included).
 ///
 /// Why these bounds: `m * 2^±64` must be normal (|m| ≥ 2^-62, < 2^64); a clamped
 /// `e2 = 127` must still overflow (|m| · 2^191 ≥ 2^128); a clamped `e2 = -126` must still

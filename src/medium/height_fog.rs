@@ -20,9 +20,16 @@
 //! the segment does not thin out), which falls out of the same arithmetic.
 //!
 //! Error: relative error of τ at most 16 · 2⁻²⁴ · (1 + |b·y0| + |Δ|) for an axis-aligned
-//! up vector (tested against `reference` in `tests/height_fog.rs`). With a general up
-//! vector the height dot(o, up) is rounded relative to |o|, adding |b|·|o|·2⁻²⁴ to the
-//! condition.
+//! up vector, tested against the independent f64 reference (`reference::check_sample`,
+//! `tests/height_fog.rs`, `tests/extreme.rs`). With a general up vector the f32 rounding
+//! of up moves the height dot(o, up) by up to ~|o|·2⁻²⁴ and u = dot(d, up) by ~|d|·2⁻²⁴;
+//! the tests treat that as a perturbation of the input (`reference::tau_interval`), since
+//! near u = 0 it can flip the sign of u. Subnormal τ is accurate to 2⁻¹⁴⁹ per layer, not
+//! relatively. One class is outside the bound: where |b·(h(o) − h0)| ≥ 2^191 (≈ 3e57, e.g.
+//! b ≥ 1e19 with the camera 3e38 from the base; or, with a general up vector and
+//! |b| > 2^40, |dot(o, up)| beyond f32::MAX) and the ray reaches denser fog by more than
+//! that, whether τ saturates to +∞ or to 0 may be wrong (both terms of the dense-end
+//! exponent are beyond the scaled f32 range).
 
 use crate::math::{exp_split, exprel_neg, frexp, Lane};
 use crate::scene::LayerPlan;
@@ -30,12 +37,14 @@ use crate::scene::LayerPlan;
 /// Per-ray quantities shared by all layers.
 #[derive(Clone, Copy)]
 pub(crate) struct RayGeom<L> {
-    /// Height of the origin along the up axis: dot(o, up).
+    /// Height of the origin along the up axis: dot(o, up) (±inf where that overflows).
     pub y: L,
-    /// frexp of u = dot(d, up).
+    /// dot(o, up) · 2^-64, which does not overflow.
+    pub y_s: L,
+    /// frexp of u = dot(d, up) (u = 0 gives e = U_ZERO_EXPONENT).
     pub u_m: L,
     pub u_e: L,
-    /// frexp of t (t = +∞ gives m = 1, e = 1000).
+    /// frexp of t (t = +∞ gives m = 1, e = INF_EXPONENT).
     pub t_m: L,
     pub t_e: L,
     /// |d| = n_m · 2^n_e.
@@ -47,23 +56,40 @@ pub(crate) struct RayGeom<L> {
 }
 
 /// Exponent given to t = +∞: large enough that b·u·t is beyond any finite product of f32
-/// exponents, small enough that sums of such exponents stay exact in f32.
-const INF_EXPONENT: f32 = 1000.0;
+/// exponents, and that t·e^(−u_min) overflows for every u_min that `exp_split` can see
+/// (|u_min| ≤ 2^20, i.e. e^(−u_min) ≥ 2^-1.52e6) when u = 0: a horizontal ray to infinity
+/// gathers τ = +∞ however thin the fog at its height (found by `tests/extreme.rs`: with
+/// 1000 here, a camera 1e4 above the fog looking horizontally gave τ = 0). Small enough
+/// that sums of such exponents stay exact in f32 (< 2^24).
+const INF_EXPONENT: f32 = 2_097_152.0; // 2^21
+/// Exponent given to u = 0 (frexp gives −151): far enough below every other exponent that
+/// Δ = b·u·t has an exponent below PHI_MAX_EXP even for t = +∞, so φ = 1 and no part of
+/// 1/Δ is moved into the exponent (found by `tests/extreme.rs`: with −151, b = 1e10,
+/// u = 0, t = 3e38 gave τ/2, and t = +∞ a finite τ).
+const U_ZERO_EXPONENT: f32 = -8_388_608.0; // -2^23
+/// 2^40, 2^-64 and 2^64: the scaling of the dense-end exponent (see `layer_depth`).
+const TWO40: f32 = 1_099_511_627_776.0;
+pub(crate) const TWO_M64: f32 = 5.421_010_862_427_522e-20;
+const TWO64: f32 = 18_446_744_073_709_551_616.0;
 /// The exponent of Δ is clamped to this before φ is evaluated; beyond it (|Δ| ≥ 256)
 /// φ = 1/Δ exactly in f32 and the rest of 1/Δ is carried in the exponent.
 const PHI_MAX_EXP: f32 = 8.0;
 
 impl<L: Lane> RayGeom<L> {
-    /// `y`: height dot(o, up); `u`: dot(d, up); `t`: segment end; `norm`: (n_m, n_e) of |d|.
+    /// `y`: height dot(o, up); `y_s`: dot(o, up) · 2^-64; `u · 2^u_shift`: dot(d, up);
+    /// `t`: segment end; `norm`: (n_m, n_e) of |d|.
     #[inline(always)]
-    pub(crate) fn new(y: L, u: L, t: L, norm: (L, L)) -> RayGeom<L> {
+    pub(crate) fn new(y: L, y_s: L, u: L, u_shift: L, t: L, norm: (L, L)) -> RayGeom<L> {
         let (u_m, u_e) = frexp(u);
+        let u_e = u_e + u_shift;
+        let u_e = L::select(u.eq(L::splat(0.0)), L::splat(U_ZERO_EXPONENT), u_e);
         let (t_m, t_e) = frexp(t);
         let t_e = L::select(t.eq(L::splat(f32::INFINITY)), L::splat(INF_EXPONENT), t_e);
         #[allow(clippy::eq_op)] // u - u is NaN exactly when u is not finite
         let guard = (u - u) + L::select(t.ge(L::splat(0.0)), L::splat(0.0), L::splat(f32::NAN));
         RayGeom {
             y,
+            y_s,
             u_m,
             u_e,
             t_m,
@@ -102,9 +128,6 @@ pub(crate) fn layer_depth<L: Lane>(layer: &LayerPlan, g: &RayGeom<L>) -> (L, L) 
         // Homogeneous layer: G = |d| · t.
         return (g.n_m * g.t_m + g.guard, g.n_e + g.t_e);
     }
-    // b != 0: b·y0 may be ±inf (|y0| beyond f32), never NaN.
-    let a0 = L::splat(layer.b) * (g.y - L::splat(layer.h0));
-
     // Δ = b·u·t as mantissa (|dm| in [1, 8) or 0) and exponent.
     let dm = L::splat(layer.b_split.m) * g.u_m * g.t_m;
     let de = L::splat(layer.b_split.e) + g.u_e + g.t_e;
@@ -115,10 +138,24 @@ pub(crate) fn layer_depth<L: Lane>(layer: &LayerPlan, g: &RayGeom<L>) -> (L, L) 
     let phi = exprel_neg(dc);
     let phi_e = (L::splat(PHI_MAX_EXP) - de).min(L::splat(0.0));
 
-    // The exponent at the denser end: b·y0 + min(Δ, 0), with Δ clamped to |Δ| < 2^90
-    // (finite, so a0 = ±inf gives ±inf, not NaN).
-    let dsigned = dm * L::pow2i(de.clamp(L::splat(-126.0), L::splat(87.0)));
-    let u_min = a0 + dsigned.min(L::splat(0.0));
+    // The exponent at the denser end, u_min = b·y0 + min(Δ, 0), summed in units of 2^-64
+    // so that neither term saturates before their sum does: |b·y0| reaches 2^256 and
+    // |Δ| 2^(2^21) (t = +∞). With both terms clamped to a common bound (as before), a
+    // camera far on the thin side looking into denser fog got the sign of u_min wrong
+    // (`tests/extreme.rs`: b = 1e30, camera 2 above the base looking down gave τ = 0,
+    // not +∞), and y − h0 overflowed for heights beyond ±1.7e38 (wrong for tiny b).
+    // The 2^-64 goes, per layer, to y0 where |b| ≤ 2^40 (y0·2^-64, from the height formed
+    // at that scale, loses at most 2^-150 absolute, b times that ≤ 2^-110, and b·y0·2^-64
+    // cannot overflow) and to b otherwise (b·2^-64 is exact; a0·2^-64 overflows only
+    // beyond 2^191, and the min keeps +inf + (−inf) from giving NaN). The sum times 2^64
+    // saturates to ±inf, which `exp_split` clamps.
+    let a0s = if layer.b.abs() <= TWO40 {
+        L::splat(layer.b) * (g.y_s - L::splat(layer.h0 * TWO_M64))
+    } else {
+        (L::splat(layer.b * TWO_M64) * (g.y - L::splat(layer.h0))).min(L::splat(1.7e38))
+    };
+    let ds = dm * L::pow2i((de - L::splat(64.0)).clamp(L::splat(-126.0), L::splat(127.0)));
+    let u_min = (a0s + ds.min(L::splat(0.0))) * L::splat(TWO64);
     let (em, ek) = exp_split(u_min.neg());
 
     let m = g.n_m * g.t_m * phi * em + g.guard;

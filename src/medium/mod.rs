@@ -1,3 +1,4 @@
 //! Participating media, one file each.
 
 pub(crate) mod height_fog;
+pub(crate) mod volume;

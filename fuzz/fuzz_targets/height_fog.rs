@@ -1,0 +1,311 @@
+//! Fuzzes the height fog kernels with arbitrary f32 bit patterns (NaN, ±inf, subnormals,
+//! huge and tiny values) for a scene's parameters and a batch of rays.
+//!
+//! The scene is built through `Scene::new` (inputs it rejects are skipped); the batch is
+//! evaluated with `evaluate` (8 lanes) and `evaluate_scalar`, and checked for:
+//!
+//! - no panic, anywhere;
+//! - x8 and scalar bit-identical for every output, NaN included; `evaluate_par` and a
+//!   batch shifted by one ray (a ray's result must not depend on its position, tails
+//!   included) give the same bits; asking for fewer outputs does not change the ones
+//!   computed; `Scene::eval_ray` agrees with the batch;
+//! - for a valid ray (finite o and d, t >= 0 or t = +inf) in a valid scene: no NaN, τ >= 0,
+//!   0 <= T <= 1 (T = 0 where τ = +inf), L_in finite and >= 0;
+//! - for an invalid ray, NaN in every output (τ, T, L_in, all channels) — see below.
+//!
+//! What non-finite inputs produce (verified here):
+//! - NaN or ±inf in a component of o or d that the kernel reads, or t NaN or t < 0 (t = -0
+//!   is valid): NaN in every output of that ray, never a plausible number. The kernel reads
+//!   the height coordinate of o (all of o for an up vector that is not ±X, ±Y or ±Z) and
+//!   every component of d (only the up component of d for a batch marked
+//!   `with_unit_directions(true)`, unless a sun lights a non-isotropic component). A NaN in
+//!   a component it does not read does not reach the outputs (e.g. `ox = NaN` with up = +Y
+//!   gives the same result as `ox = 0`).
+//! - A scene with no height fog layer returns τ = 0, T = 1, L_in = 0 for every ray without
+//!   reading it, invalid rays included.
+//! - t = +inf is valid (a sky pixel): τ = +inf and T = 0 where the fog does not thin out
+//!   along the ray, a finite τ where it does.
+//! - Non-finite scene parameters are rejected by `Scene::new`.
+//!
+//! `RUSTC_BOOTSTRAP=1 cargo fuzz run height_fog -- -max_total_time=60`
+
+#![no_main]
+
+use analytic_fog::{
+    Component, HeightFogLayer, Lighting, Outputs, Phase, Rays, Scene, SceneDesc, Sun,
+};
+use glam::Vec3;
+use libfuzzer_sys::fuzz_target;
+
+/// Reads the fuzzer's bytes as little-endian f32 bit patterns and bytes (zeros past the end).
+struct Input<'a> {
+    data: &'a [u8],
+    at: usize,
+}
+
+impl Input<'_> {
+    fn byte(&mut self) -> u8 {
+        let b = self.data.get(self.at).copied().unwrap_or(0);
+        self.at += 1;
+        b
+    }
+    fn f32(&mut self) -> f32 {
+        f32::from_le_bytes([self.byte(), self.byte(), self.byte(), self.byte()])
+    }
+    fn vec3(&mut self) -> Vec3 {
+        Vec3::new(self.f32(), self.f32(), self.f32())
+    }
+    /// A coefficient: its absolute value unless `raw` (so that most scenes are valid).
+    fn coeff3(&mut self, raw: bool) -> Vec3 {
+        let v = self.vec3();
+        if raw {
+            v
+        } else {
+            v.abs()
+        }
+    }
+    fn remaining(&self) -> usize {
+        self.data.len().saturating_sub(self.at)
+    }
+}
+
+const MAX_RAYS: usize = 37;
+
+fn scene_from(inp: &mut Input) -> SceneDesc {
+    let flags = inp.byte();
+    let raw = flags & 0x80 != 0;
+    let up = match flags & 3 {
+        0 => Vec3::Y,
+        1 => Vec3::NEG_Z,
+        2 => Vec3::X,
+        _ => inp.vec3(),
+    };
+    let n_layers = ((flags >> 2) & 3) as usize;
+    let mut height_fog = Vec::new();
+    for _ in 0..n_layers {
+        let base_height = inp.f32();
+        let falloff = inp.f32();
+        let n_comp = (inp.byte() % 3) as usize; // 0 components is rejected by Scene::new
+        let mut components = Vec::new();
+        for _ in 0..n_comp {
+            let scattering = inp.coeff3(raw);
+            let absorption = inp.coeff3(raw);
+            let sel = inp.byte();
+            let g = inp.f32();
+            let phase = match sel % 3 {
+                0 => Phase::Isotropic,
+                1 => Phase::Rayleigh,
+                _ => {
+                    // Any valid g, ±0.99999994 included; raw bits when `raw`.
+                    let g = if raw || g.abs() < 1.0 {
+                        g
+                    } else {
+                        let v = (g.to_bits() & 0xff_ffff) as f32 / 16_777_216.0;
+                        v.copysign(g)
+                    };
+                    Phase::HenyeyGreenstein(g)
+                }
+            };
+            components.push(Component {
+                scattering,
+                absorption,
+                phase,
+            });
+        }
+        height_fog.push(HeightFogLayer {
+            base_height,
+            falloff,
+            components,
+        });
+    }
+    let ambient = inp.coeff3(raw);
+    let sun = if flags & 0x10 != 0 {
+        Some(Sun {
+            direction: inp.vec3(),
+            radiance: inp.coeff3(raw),
+        })
+    } else {
+        None
+    };
+    SceneDesc {
+        up,
+        height_fog,
+        lighting: Lighting { ambient, sun },
+    }
+}
+
+/// Nine output slices (τ, T, L_in per channel).
+struct Out(Vec<Vec<f32>>);
+
+impl Out {
+    fn new(n: usize) -> Out {
+        Out(vec![vec![-7.0; n]; 9])
+    }
+    /// The outputs selected by `which` (τ, T, L_in).
+    fn outputs(&mut self, which: [bool; 3]) -> Outputs<'_> {
+        let [t0, t1, t2, x0, x1, x2, l0, l1, l2] = &mut self.0[..] else {
+            unreachable!()
+        };
+        Outputs {
+            tau: which[0].then_some([t0, t1, t2]),
+            transmittance: which[1].then_some([x0, x1, x2]),
+            inscattering: which[2].then_some([l0, l1, l2]),
+        }
+    }
+    fn get(&self, k: usize, i: usize) -> f32 {
+        self.0[k][i]
+    }
+}
+
+const NAMES: [&str; 9] = [
+    "tau_r", "tau_g", "tau_b", "T_r", "T_g", "T_b", "in_r", "in_g", "in_b",
+];
+
+fn same(a: f32, b: f32) -> bool {
+    a.to_bits() == b.to_bits()
+}
+
+fuzz_target!(|data: &[u8]| {
+    let mut inp = Input { data, at: 0 };
+    let desc = scene_from(&mut inp);
+    let unit = inp.byte() & 1 != 0;
+    let n = (inp.remaining() / 28).min(MAX_RAYS);
+    let mut cols: [Vec<f32>; 7] = Default::default();
+    for _ in 0..n {
+        for c in cols.iter_mut() {
+            c.push(inp.f32());
+        }
+    }
+    let scene = match Scene::new(desc) {
+        Ok(s) => s,
+        Err(_) => return,
+    };
+    let [ox, oy, oz, dx, dy, dz, t] = &cols;
+    let rays = Rays::new(ox, oy, oz, dx, dy, dz, t)
+        .unwrap()
+        .with_unit_directions(unit);
+
+    let all = [true; 3];
+    let mut x8 = Out::new(n);
+    let mut sc = Out::new(n);
+    scene.evaluate(&rays, x8.outputs(all)).unwrap();
+    scene.evaluate_scalar(&rays, sc.outputs(all)).unwrap();
+    let mut par = Out::new(n);
+    scene.evaluate_par(&rays, par.outputs(all)).unwrap();
+    // The same rays one position later (a different split into packets and tail).
+    let mut shifted = Out::new(n.saturating_sub(1));
+    scene
+        .evaluate(&rays.slice(1, n), shifted.outputs(all))
+        .unwrap();
+    // Fewer outputs: τ alone, T alone.
+    let mut tau_only = Out::new(n);
+    scene
+        .evaluate(&rays, tau_only.outputs([true, false, false]))
+        .unwrap();
+    let mut t_only = Out::new(n);
+    scene
+        .evaluate_scalar(&rays, t_only.outputs([false, true, false]))
+        .unwrap();
+
+    let up = scene.up().to_array();
+    let axis = (0..3).find(|&i| up[i].abs() == 1.0);
+    let reads_o = |c: usize| axis.is_none_or(|a| a == c);
+    let reads_d = |c: usize| !unit || axis.is_none_or(|a| a == c) || scene.has_directional_light();
+    let has_fog = !scene.desc().height_fog.is_empty();
+
+    for i in 0..n {
+        let ray = [ox[i], oy[i], oz[i], dx[i], dy[i], dz[i], t[i]];
+        let ctx = || format!("ray {i} {ray:?} (unit {unit}) in {:?}", scene.desc());
+        for k in 0..9 {
+            let v = x8.get(k, i);
+            assert!(
+                same(v, sc.get(k, i)),
+                "{}: x8 {v:e} != scalar {:e}; {}",
+                NAMES[k],
+                sc.get(k, i),
+                ctx()
+            );
+            assert!(
+                same(v, par.get(k, i)),
+                "{}: x8 {v:e} != par {:e}; {}",
+                NAMES[k],
+                par.get(k, i),
+                ctx()
+            );
+            if i > 0 {
+                let s = shifted.get(k, i - 1);
+                assert!(
+                    same(v, s),
+                    "{}: x8 {v:e} != shifted {s:e}; {}",
+                    NAMES[k],
+                    ctx()
+                );
+            }
+        }
+        for ch in 0..3 {
+            let (tau, tr) = (x8.get(ch, i), x8.get(3 + ch, i));
+            assert!(
+                same(tau, tau_only.get(ch, i)),
+                "tau alone {:e} != {tau:e}; {}",
+                tau_only.get(ch, i),
+                ctx()
+            );
+            assert!(
+                same(tr, t_only.get(3 + ch, i)),
+                "T alone {:e} != {tr:e}; {}",
+                t_only.get(3 + ch, i),
+                ctx()
+            );
+        }
+        if !unit {
+            let s = scene.eval_ray(
+                Vec3::new(ox[i], oy[i], oz[i]),
+                Vec3::new(dx[i], dy[i], dz[i]),
+                t[i],
+            );
+            let got = [s.tau, s.transmittance, s.inscattering].map(|v| v.to_array());
+            for k in 0..9 {
+                assert!(
+                    same(got[k / 3][k % 3], x8.get(k, i)),
+                    "eval_ray {}: {}",
+                    NAMES[k],
+                    ctx()
+                );
+            }
+        }
+
+        let finite = ray[..6].iter().all(|v| v.is_finite());
+        let t_ok = t[i] >= 0.0; // +inf included, NaN excluded
+        if finite && t_ok {
+            for ch in 0..3 {
+                let (tau, tr, li) = (x8.get(ch, i), x8.get(3 + ch, i), x8.get(6 + ch, i));
+                assert!(tau >= 0.0, "tau = {tau:e}; {}", ctx());
+                assert!((0.0..=1.0).contains(&tr), "T = {tr:e}; {}", ctx());
+                assert!(
+                    tau != f32::INFINITY || tr == 0.0,
+                    "tau = inf, T = {tr:e}; {}",
+                    ctx()
+                );
+                assert!(
+                    li.is_finite() && li >= 0.0,
+                    "L_in = {li:e} (tau {tau:e}, T {tr:e}); {}",
+                    ctx()
+                );
+            }
+        }
+        let invalid = (0..3).any(|c| reads_o(c) && !ray[c].is_finite())
+            || (0..3).any(|c| reads_d(c) && !ray[3 + c].is_finite())
+            || !t_ok;
+        if invalid && has_fog {
+            for k in 0..9 {
+                let v = x8.get(k, i);
+                assert!(
+                    v.is_nan(),
+                    "invalid ray: {} = {v:e}, want NaN; {}",
+                    NAMES[k],
+                    ctx()
+                );
+            }
+        }
+    }
+});

@@ -1,0 +1,225 @@
+//! Fuzzes the fog-volume kernels with arbitrary f32 bit patterns for the volumes'
+//! parameters (shapes, profiles, coefficients, cut-outs), an optional height fog layer and
+//! sun, and a batch of rays.
+//!
+//! The scene is built through `Scene::new` (inputs it rejects are skipped); the batch is
+//! evaluated with `evaluate` (8 lanes), `evaluate_scalar` and `evaluate_par`, and checked
+//! for:
+//!
+//! - no panic, anywhere;
+//! - x8, scalar and rayon bit-identical for every output, NaN included;
+//! - for a valid ray (finite o and d, t ≥ 0 or +inf) in a valid scene: no NaN, τ ≥ 0,
+//!   0 ≤ T ≤ 1, L_in ≥ 0 and not NaN;
+//! - for an invalid ray (NaN or ±inf in o or d, t NaN or negative) in a scene with at
+//!   least one additive volume: NaN τ in every channel.
+//!
+//! `RUSTC_BOOTSTRAP=1 cargo fuzz run volumes -- -max_total_time=60`
+
+#![no_main]
+
+use analytic_fog::{
+    Component, HeightFogLayer, Lighting, Outputs, Phase, Profile, Rays, Scene, SceneDesc, Shape,
+    Sun, Volume,
+};
+use glam::{Quat, Vec3};
+use libfuzzer_sys::fuzz_target;
+
+struct Input<'a> {
+    data: &'a [u8],
+    at: usize,
+}
+
+impl Input<'_> {
+    fn byte(&mut self) -> u8 {
+        let b = self.data.get(self.at).copied().unwrap_or(0);
+        self.at += 1;
+        b
+    }
+    fn f32(&mut self) -> f32 {
+        f32::from_le_bytes([self.byte(), self.byte(), self.byte(), self.byte()])
+    }
+    fn vec3(&mut self) -> Vec3 {
+        Vec3::new(self.f32(), self.f32(), self.f32())
+    }
+    /// A positive-ish parameter: its absolute value unless `raw`.
+    fn pos3(&mut self, raw: bool) -> Vec3 {
+        let v = self.vec3();
+        if raw {
+            v
+        } else {
+            v.abs()
+        }
+    }
+    fn remaining(&self) -> usize {
+        self.data.len().saturating_sub(self.at)
+    }
+}
+
+const MAX_RAYS: usize = 29;
+
+fn shape_from(inp: &mut Input, raw: bool) -> Shape {
+    let sel = inp.byte();
+    let center = inp.vec3();
+    match sel % 4 {
+        0 => Shape::Sphere {
+            center,
+            radius: inp.pos3(raw).x,
+        },
+        1 => Shape::Ellipsoid {
+            center,
+            radii: inp.pos3(raw),
+            rotation: Quat::from_xyzw(inp.f32(), inp.f32(), inp.f32(), inp.f32()),
+        },
+        2 => Shape::Affine {
+            center,
+            matrix: [inp.vec3(), inp.vec3(), inp.vec3()],
+        },
+        _ => {
+            let half_extents = inp.pos3(raw);
+            let rotation = Quat::from_xyzw(inp.f32(), inp.f32(), inp.f32(), inp.f32());
+            let f = inp.f32();
+            let edge_fade = if raw { f } else { f.abs().fract() };
+            Shape::Box {
+                center,
+                half_extents,
+                rotation,
+                edge_fade,
+            }
+        }
+    }
+}
+
+fn scene_from(inp: &mut Input) -> SceneDesc {
+    let flags = inp.byte();
+    let raw = flags & 0x80 != 0;
+    let n = (flags & 3) as usize + 1;
+    let mut volumes = Vec::new();
+    for _ in 0..n {
+        let shape = shape_from(inp, raw);
+        let sel = inp.byte();
+        let profile = Profile::ALL[(sel % 6) as usize];
+        let profile = if matches!(shape, Shape::Box { .. }) && !raw {
+            Profile::Constant
+        } else {
+            profile
+        };
+        let g = inp.f32();
+        let phase = match (sel >> 3) % 3 {
+            0 => Phase::Isotropic,
+            1 => Phase::Rayleigh,
+            _ => Phase::HenyeyGreenstein(if raw { g } else { g.abs().fract() * 0.99 }),
+        };
+        volumes.push(Volume {
+            shape,
+            profile,
+            scattering: inp.pos3(raw),
+            absorption: inp.pos3(raw),
+            phase,
+            emission: inp.pos3(raw),
+            subtractive: sel & 0x80 != 0,
+        });
+    }
+    let height_fog = if flags & 0x20 != 0 {
+        vec![HeightFogLayer {
+            base_height: inp.f32(),
+            falloff: inp.f32(),
+            components: vec![Component {
+                scattering: inp.pos3(raw),
+                absorption: Vec3::ZERO,
+                phase: Phase::Isotropic,
+            }],
+        }]
+    } else {
+        vec![]
+    };
+    let ambient = inp.pos3(raw);
+    let sun = if flags & 0x10 != 0 {
+        Some(Sun {
+            direction: inp.vec3(),
+            radiance: inp.pos3(raw),
+        })
+    } else {
+        None
+    };
+    SceneDesc {
+        height_fog,
+        lighting: Lighting { ambient, sun },
+        volumes,
+        ..SceneDesc::default()
+    }
+}
+
+fn run(scene: &Scene, rays: &Rays, mode: u8, n: usize) -> Vec<Vec<f32>> {
+    let mut o = vec![vec![-7.0f32; n]; 9];
+    {
+        let [t0, t1, t2, x0, x1, x2, l0, l1, l2] = &mut o[..] else {
+            unreachable!()
+        };
+        let out = Outputs {
+            tau: Some([t0, t1, t2]),
+            transmittance: Some([x0, x1, x2]),
+            inscattering: Some([l0, l1, l2]),
+        };
+        match mode {
+            0 => scene.evaluate(rays, out).unwrap(),
+            1 => scene.evaluate_scalar(rays, out).unwrap(),
+            _ => scene.evaluate_par(rays, out).unwrap(),
+        }
+    }
+    o
+}
+
+fuzz_target!(|data: &[u8]| {
+    let mut inp = Input { data, at: 0 };
+    let desc = scene_from(&mut inp);
+    let unit = inp.byte() & 1 != 0;
+    let n = (inp.remaining() / 28).min(MAX_RAYS);
+    let mut cols: [Vec<f32>; 7] = Default::default();
+    for _ in 0..n {
+        for c in cols.iter_mut() {
+            c.push(inp.f32());
+        }
+    }
+    let additive = desc.volumes.iter().any(|v| !v.subtractive);
+    let scene = match Scene::new(desc) {
+        Ok(s) => s,
+        Err(_) => return,
+    };
+    let [ox, oy, oz, dx, dy, dz, t] = &cols;
+    let rays = Rays::new(ox, oy, oz, dx, dy, dz, t)
+        .unwrap()
+        .with_unit_directions(unit);
+    let x8 = run(&scene, &rays, 0, n);
+    let sc = run(&scene, &rays, 1, n);
+    let par = run(&scene, &rays, 2, n);
+    for k in 0..9 {
+        for i in 0..n {
+            assert_eq!(
+                x8[k][i].to_bits(),
+                sc[k][i].to_bits(),
+                "x8 vs scalar, output {k} ray {i}"
+            );
+            assert_eq!(
+                x8[k][i].to_bits(),
+                par[k][i].to_bits(),
+                "x8 vs par, output {k} ray {i}"
+            );
+        }
+    }
+    for i in 0..n {
+        let fin = [ox[i], oy[i], oz[i], dx[i], dy[i], dz[i]]
+            .iter()
+            .all(|v| v.is_finite());
+        let valid = fin && (t[i] >= 0.0);
+        for ch in 0..3 {
+            let (tau, tr, li) = (x8[ch][i], x8[3 + ch][i], x8[6 + ch][i]);
+            if valid {
+                assert!(tau >= 0.0, "τ {tau} for ray {i}");
+                assert!((0.0..=1.0).contains(&tr), "T {tr} for ray {i}");
+                assert!(li >= 0.0, "L_in {li} for ray {i}");
+            } else if additive {
+                assert!(tau.is_nan(), "invalid ray {i} gave τ {tau}");
+            }
+        }
+    }
+});

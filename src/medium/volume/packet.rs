@@ -1,0 +1,409 @@
+//! The volumes' optical depth and fog colour for one packet of rays (1 or 8 lanes).
+//!
+//! Per ray and volume: the origin and the unit direction are mapped to the volume's unit
+//! space (`q = M⁻¹(o − c)`, `e = M⁻¹·dir`), and the ray is re-parametrised about its closest
+//! approach to the centre: `σ_c = −dot(q, e)/|e|²` (world distance to it), `q_c = q + σ_c·e`
+//! (the closest point, |q_c| = h). Everything after that is O(1) in unit space, whatever
+//! the camera's distance; only the clip at the origin and at t (seed 004's depth-buffer
+//! clip) refers back to the ray's own parameter.
+//!
+//! Balls: `u = |e|·(σ − σ_c)` is the unit-space arc length, the chord is [−w, w] and the
+//! world length is `du / |e|`. Cubes: the slabs |q_c + v·e| ≤ 1 in `v = σ − σ_c`, in world
+//! units directly; the edge fade is a product of three piecewise-linear ramps, a cubic
+//! between the 12 points where a ramp bends, integrated by Simpson's rule per piece (exact
+//! for cubics).
+//!
+//! Cut-outs: each cut's chord, as world distances from its own closest approach, is
+//! moved into each additive volume's frame by `σ_c,cut − σ_c`; the cuts are sorted by
+//! their start per lane and swept once, integrating the additive volume over the gaps.
+
+use super::profile::{integral, Chord, Piece};
+use super::{Kind, VolumePlan, MAX_CUTS};
+use crate::math::{ldexp, Lane};
+use crate::scene::Scene;
+
+/// The volumes' contribution for a packet: optical depth per channel, and (if asked) the
+/// τ-weighted mix of their fog colours.
+#[derive(Clone, Copy)]
+pub(crate) struct VolOut<L> {
+    pub tau: [L; 3],
+    pub colour: [L; 3],
+}
+
+impl<L: Lane> VolOut<L> {
+    /// Mixes `colour_h` (the height fog's colour, optical depth `tau_h`) with the volumes'
+    /// colour by optical depth, for channel `ch`. The weights saturate at τ = 1e30.
+    #[inline(always)]
+    pub(crate) fn mix(&self, ch: usize, colour_h: L, tau_h: L) -> L {
+        let cap = L::splat(1e30);
+        let tv = self.tau[ch].min(cap);
+        let th = tau_h.min(cap);
+        let sum = tv + th;
+        let wv = L::select(sum.gt(L::splat(0.0)), tv / sum, L::splat(0.0));
+        wv.mul_add(self.colour[ch] - colour_h, colour_h)
+    }
+}
+
+const FAR: f32 = 1e18;
+
+/// A ray in one volume's frame.
+#[derive(Clone, Copy)]
+struct Frame<L> {
+    /// World distance from the origin to the closest approach (along the unit direction).
+    sc: L,
+    /// The closest point in unit space.
+    qc: [L; 3],
+    /// The unit direction in unit space, and its length.
+    e: [L; 3],
+    a: L,
+    /// dot(q, e/|e|): the unit-space coordinate of the origin about the closest approach.
+    uo: L,
+}
+
+#[inline(always)]
+fn frame<L: Lane>(v: &VolumePlan, o: &[L; 3], dir: &[L; 3]) -> Frame<L> {
+    let big = L::splat(1.0e25);
+    let far = L::splat(FAR);
+    // |o − c| ≤ 1e25 and |M⁻¹| ≤ 1e12·√3: the products below cannot overflow (so no
+    // inf − inf); a camera farther than that sees the volume as a point anyway.
+    let dq = [0, 1, 2].map(|i| (o[i] - L::splat(v.center[i])).clamp(big.neg(), big));
+    let m = &v.inv;
+    let mv = |x: &[L; 3], r: usize| {
+        x[0].mul_add(
+            L::splat(m[r][0]),
+            x[1].mul_add(L::splat(m[r][1]), x[2] * L::splat(m[r][2])),
+        )
+    };
+    let q = [0, 1, 2].map(|r| mv(&dq, r).clamp(far.neg(), far));
+    let e = [0, 1, 2].map(|r| mv(dir, r));
+    let ee = e[0].mul_add(e[0], e[1].mul_add(e[1], e[2] * e[2]));
+    let a = ee.sqrt().max(L::splat(1e-30));
+    let inv_a = L::splat(1.0) / a;
+    let eh = e.map(|x| x * inv_a);
+    let uo = q[0].mul_add(eh[0], q[1].mul_add(eh[1], q[2] * eh[2]));
+    let qc = [0, 1, 2].map(|i| uo.mul_add(eh[i].neg(), q[i]));
+    Frame {
+        sc: uo.neg() * inv_a,
+        qc,
+        e,
+        a,
+        uo,
+    }
+}
+
+/// The ball's chord and the piece of it within [0, t_w] (world distance along the ray).
+#[inline(always)]
+fn ball_piece<L: Lane>(f: &Frame<L>, t_w: L) -> (Chord<L>, Piece<L>) {
+    let zero = L::splat(0.0);
+    let h2 = f.qc[0].mul_add(f.qc[0], f.qc[1].mul_add(f.qc[1], f.qc[2] * f.qc[2]));
+    let w = (L::splat(1.0) - h2).max(zero).sqrt();
+    let w2 = w + w;
+    let at = f.a * t_w;
+    let ut = f.uo + at;
+    let len = w2.min(at).min((w - f.uo).min(w + ut)).max(zero);
+    let ua = f.uo.clamp(w.neg(), w);
+    let ub = ut.clamp(w.neg(), w);
+    let da = (w + f.uo).clamp(zero, w2);
+    let db = (w - ut).clamp(zero, w2);
+    (
+        Chord { h2, w },
+        Piece {
+            ua,
+            ub,
+            len,
+            da,
+            db,
+        },
+    )
+}
+
+/// The cube's slab interval [v_in, v_out] about the closest approach (v_in > v_out when
+/// the line misses).
+#[inline(always)]
+fn cube_interval<L: Lane>(f: &Frame<L>) -> (L, L) {
+    let inf = L::splat(f32::INFINITY);
+    let one = L::splat(1.0);
+    let mut lo = inf.neg();
+    let mut hi = inf;
+    for i in 0..3 {
+        let e = f.e[i];
+        let q = f.qc[i];
+        let zero_e = e.abs().lt(L::splat(1e-30));
+        let inv = one / L::select(zero_e, one, e);
+        let v1 = (one.neg() - q) * inv;
+        let v2 = (one - q) * inv;
+        let inside = q.abs().le(one);
+        let l = L::select(zero_e, L::select(inside, inf.neg(), inf), v1.min(v2));
+        let h = L::select(zero_e, L::select(inside, inf, inf.neg()), v1.max(v2));
+        lo = lo.max(l);
+        hi = hi.min(h);
+    }
+    (lo, hi)
+}
+
+/// The box density `Π clamp((1 − |q_c + v·e|) / fade, 0, 1)` at v.
+#[inline(always)]
+fn fade_at<L: Lane>(f: &Frame<L>, inv_fade: L, v: L) -> L {
+    let one = L::splat(1.0);
+    let mut p = one;
+    for i in 0..3 {
+        let x = v.mul_add(f.e[i], f.qc[i]).abs();
+        p = p * ((one - x) * inv_fade).clamp(L::splat(0.0), one);
+    }
+    p
+}
+
+/// ∫ box density dv over [va, vb] (va ≤ vb inside the slab interval).
+#[inline(always)]
+fn cube_integral<L: Lane>(plan: &VolumePlan, f: &Frame<L>, va: L, vb: L) -> L {
+    let zero = L::splat(0.0);
+    let len = (vb - va).max(zero);
+    if plan.edge_fade <= 0.0 {
+        return len;
+    }
+    let one = L::splat(1.0);
+    let fade = plan.edge_fade;
+    // The 12 points where a ramp bends, clamped into [va, vb], sorted.
+    let mut b = [zero; 12];
+    for i in 0..3 {
+        let e = f.e[i];
+        let zero_e = e.abs().lt(L::splat(1e-30));
+        let inv = one / L::select(zero_e, one, e);
+        for (k, x) in [-1.0, -1.0 + fade, 1.0 - fade, 1.0].into_iter().enumerate() {
+            let v = (L::splat(x) - f.qc[i]) * inv;
+            b[4 * i + k] = L::select(zero_e, va, v.clamp(va, vb));
+        }
+    }
+    // Odd-even transposition sort (12 rounds: sorted for any input order).
+    for round in 0..12 {
+        let mut j = round % 2;
+        while j + 1 < 12 {
+            let (x, y) = (b[j], b[j + 1]);
+            b[j] = x.min(y);
+            b[j + 1] = x.max(y);
+            j += 2;
+        }
+    }
+    let inv_fade = L::splat(1.0 / fade);
+    let mut acc = zero;
+    let mut prev = va;
+    let mut f_prev = fade_at(f, inv_fade, va);
+    for k in 0..13 {
+        let next = if k < 12 { b[k] } else { vb };
+        let h = next - prev;
+        let fm = fade_at(f, inv_fade, (prev + next) * L::splat(0.5));
+        let f_next = fade_at(f, inv_fade, next);
+        acc = h.mul_add(fm.mul_add(L::splat(4.0), f_prev + f_next), acc);
+        prev = next;
+        f_prev = f_next;
+    }
+    L::select(len.gt(zero), acc * L::splat(1.0 / 6.0), zero)
+}
+
+/// One cut's interval in world distance about its own closest approach, and that
+/// closest approach's distance from the origin. Empty intervals are (+inf, +inf).
+#[derive(Clone, Copy)]
+struct CutSpan<L> {
+    sc: L,
+    lo: L,
+    hi: L,
+}
+
+#[inline(always)]
+fn cut_span<L: Lane>(plan: &VolumePlan, o: &[L; 3], dir: &[L; 3]) -> CutSpan<L> {
+    let f = frame(plan, o, dir);
+    let (lo, hi) = match plan.kind {
+        Kind::Ball => {
+            let (c, _) = ball_piece(&f, L::splat(0.0));
+            let r = c.w / f.a;
+            (r.neg(), r)
+        }
+        Kind::Cube => cube_interval(&f),
+    };
+    let inf = L::splat(f32::INFINITY);
+    let empty = lo.ge(hi);
+    CutSpan {
+        sc: f.sc,
+        lo: L::select(empty, inf, lo),
+        hi: L::select(empty, inf, hi),
+    }
+}
+
+/// ∫ density · world length over the additive volume's segment minus the cuts.
+#[inline(always)]
+fn volume_depth<L: Lane>(
+    plan: &VolumePlan,
+    o: &[L; 3],
+    dir: &[L; 3],
+    t_w: L,
+    cuts: &[CutSpan<L>],
+) -> L {
+    let f = frame(plan, o, dir);
+    let zero = L::splat(0.0);
+    match plan.kind {
+        Kind::Ball => {
+            let (chord, seg) = ball_piece(&f, t_w);
+            let inv_a = L::splat(1.0) / f.a;
+            if cuts.is_empty() {
+                return integral(plan.profile, &chord, &seg) * inv_a;
+            }
+            let w = chord.w;
+            // Sweep the sorted cuts in this ball's u coordinate.
+            let mut pos = seg.ua;
+            let mut pos_d = seg.da;
+            let mut acc = zero;
+            for c in cuts {
+                let shift = c.sc - f.sc;
+                let ca = f.a * (shift + c.lo);
+                let cb = f.a * (shift + c.hi);
+                let end_is_ub = ca.ge(seg.ub);
+                let end = L::select(end_is_ub, seg.ub, ca.max(pos));
+                let end_d = L::select(end_is_ub, seg.db, (w - end).max(zero));
+                let whole = end_is_ub & pos.eq(seg.ua);
+                let len = L::select(whole, seg.len, (end - pos).max(zero));
+                let piece = Piece {
+                    ua: pos,
+                    ub: end,
+                    len,
+                    da: pos_d,
+                    db: end_d,
+                };
+                acc = acc + integral(plan.profile, &chord, &piece);
+                let cbc = cb.min(seg.ub);
+                let moved = cbc.gt(pos);
+                pos = L::select(moved, cbc, pos);
+                pos_d = L::select(moved, (w + cbc).max(zero), pos_d);
+            }
+            let whole = pos.eq(seg.ua);
+            let piece = Piece {
+                ua: pos,
+                ub: seg.ub,
+                len: L::select(whole, seg.len, (seg.ub - pos).max(zero)),
+                da: pos_d,
+                db: seg.db,
+            };
+            acc = acc + integral(plan.profile, &chord, &piece);
+            acc * inv_a
+        }
+        Kind::Cube => {
+            let (lo, hi) = cube_interval(&f);
+            let va = lo.max(f.sc.neg());
+            let vb = hi.min(t_w - f.sc);
+            if cuts.is_empty() {
+                return cube_integral(plan, &f, va, vb.max(va));
+            }
+            let mut pos = va;
+            let mut acc = zero;
+            for c in cuts {
+                let shift = c.sc - f.sc;
+                let ca = shift + c.lo;
+                let cb = shift + c.hi;
+                let end = ca.min(vb).max(pos);
+                acc = acc + cube_integral(plan, &f, pos, end);
+                pos = pos.max(cb.min(vb));
+            }
+            acc + cube_integral(plan, &f, pos, vb.max(pos))
+        }
+    }
+}
+
+/// The volumes' optical depth and colour for a packet. `o`: origins; `dir`: unit
+/// directions (zero for a zero direction); `t_w`: segment length in world units (may be
+/// +inf); `guard`: +0, or NaN for invalid rays (added to τ); `sun`: toward the sun, when
+/// some colour depends on the view direction and radiance is wanted.
+#[inline(never)] // one copy per (L, UNIT, WANT_L), not one per kernel variant: keeps compile time sane
+pub(crate) fn eval_volumes<L: Lane, const UNIT: bool, const WANT_L: bool>(
+    scene: &Scene,
+    o: &[L; 3],
+    d: &[L; 3],
+    t: L,
+    norm: (L, L),
+    dir: &[L; 3],
+    sun: Option<[f32; 3]>,
+) -> VolOut<L> {
+    let zero = L::splat(0.0);
+    // NaN for invalid rays (a non-finite origin or direction, t NaN or negative).
+    #[allow(clippy::eq_op)] // x − x is NaN exactly when x is not finite
+    let guard = (o[0] - o[0])
+        + (o[1] - o[1])
+        + (o[2] - o[2])
+        + (d[0] - d[0])
+        + (d[1] - d[1])
+        + (d[2] - d[2])
+        + L::select(t.ge(zero), zero, L::splat(f32::NAN));
+    // The segment's length in world units: t · |d| (0 for t = 0 or d = 0).
+    let t_w = if UNIT {
+        t
+    } else {
+        let dlen = ldexp(norm.0, norm.1);
+        L::select(t.eq(zero) | dlen.eq(zero), zero, t * dlen)
+    };
+    let (o, dir) = (*o, *dir);
+    let set = &scene.volumes;
+    // The cut-outs' spans, sorted by start per lane (insertion by compare-exchange).
+    let mut spans = [CutSpan {
+        sc: zero,
+        lo: zero,
+        hi: zero,
+    }; MAX_CUTS];
+    let nc = set.cuts.len();
+    for (k, c) in set.cuts.iter().enumerate() {
+        spans[k] = cut_span(c, &o, &dir);
+    }
+    for i in 1..nc {
+        for j in (1..=i).rev() {
+            // Compare by the start in a common frame: sc + lo.
+            let (x, y) = (spans[j - 1], spans[j]);
+            let swap = (x.sc + x.lo).gt(y.sc + y.lo);
+            spans[j - 1] = CutSpan {
+                sc: L::select(swap, y.sc, x.sc),
+                lo: L::select(swap, y.lo, x.lo),
+                hi: L::select(swap, y.hi, x.hi),
+            };
+            spans[j] = CutSpan {
+                sc: L::select(swap, x.sc, y.sc),
+                lo: L::select(swap, x.lo, y.lo),
+                hi: L::select(swap, x.hi, y.hi),
+            };
+        }
+    }
+    let cuts = &spans[..nc];
+
+    let mut out = VolOut {
+        tau: [zero; 3],
+        colour: [zero; 3],
+    };
+    let mut num = [zero; 3];
+    let mut den = [zero; 3];
+    let cap = L::splat(1e30);
+    let t_w = t_w.min(L::splat(f32::MAX));
+    for plan in &set.additive {
+        // Capped so that a zero extinction channel gives 0, never inf · 0.
+        let g = volume_depth(plan, &o, &dir, t_w, cuts).min(L::splat(f32::MAX));
+        let mut c = plan.colour_const.map(L::splat);
+        if WANT_L {
+            if let (Some(s), Some((phase, k))) = (sun, &plan.colour_sun) {
+                let p = phase.eval(dir, s);
+                for ch in 0..3 {
+                    c[ch] = p.mul_add(L::splat(k[ch]), c[ch]);
+                }
+            }
+        }
+        for ch in 0..3 {
+            let tau = g * L::splat(plan.sigma[ch]);
+            out.tau[ch] = out.tau[ch] + tau;
+            if WANT_L {
+                let wt = tau.min(cap);
+                num[ch] = wt.mul_add(c[ch], num[ch]);
+                den[ch] = den[ch] + wt;
+            }
+        }
+    }
+    for ch in 0..3 {
+        out.tau[ch] = out.tau[ch] + guard;
+        if WANT_L {
+            out.colour[ch] = num[ch] / den[ch].max(L::splat(1e-30));
+        }
+    }
+    out
+}

@@ -1,0 +1,774 @@
+//! Exhaustive sweeps of the SIMD special functions in `analytic_fog::math` against f64.
+//!
+//! ```text
+//! cargo test --release --test exhaustive -- --ignored --nocapture
+//! ```
+//!
+//! Every f32 input of each function's domain (all 2^32 bit patterns for `exp`, `expm1`,
+//! `exp_split` and `frexp`; every f32 >= 0 for `exp_neg`, every f32 >= 2^-100 for
+//! `exprel_neg`; every mantissa of `ldexp`'s precondition domain with a sampled exponent)
+//! is evaluated 8 at a time through the `wide::f32x8` instantiation, and one at a time
+//! through the scalar `f32` instantiation, which must give the same bits. Errors are
+//! measured in ULP of the correctly rounded f32 result (2^-149 for subnormal results)
+//! against the f64 function, and each sweep asserts the bound written in its function's
+//! header. The sweeps are split over all cores with rayon (a few minutes on 2 cores in
+//! release; far too slow in debug, hence `#[ignore]`).
+
+use analytic_fog::math;
+use rayon::prelude::*;
+use wide::f32x8;
+
+/// Max ULP errors documented in the headers of `src/math/*.rs`; the sweeps assert them.
+const EXP_MAX_ULP: f64 = 1.0;
+const EXPM1_MAX_ULP: f64 = 1.0;
+const EXP_NEG_MAX_ULP: f64 = 1.0;
+const EXPREL_NEG_MAX_ULP: f64 = 2.0;
+/// `exp_split`'s `m · 2^k` (not rounded into the f32 range), for x in [-104, 89].
+const EXP_SPLIT_MAX_ULP: f64 = 1.0;
+
+/// Inputs per rayon task.
+const CHUNK: u64 = 1 << 16;
+
+// ---------------------------------------------------------------------------------------
+// Error measure and statistics
+
+/// The ULP of an f32 (2^-149 for zero and subnormals).
+fn ulp_of(c: f32) -> f64 {
+    let a = c.abs();
+    if a < f32::MIN_POSITIVE {
+        2f64.powi(-149)
+    } else {
+        let e = ((a.to_bits() >> 23) & 0xff) as i32 - 127;
+        2f64.powi(e - 23)
+    }
+}
+
+/// |y − r| in ULP of the correctly rounded f32 result `r as f32`. An overflow (`±inf`)
+/// counts as ±2^128 where `r` is finite, so that an early or late overflow costs what the
+/// distance to the threshold is; an infinite or NaN `r` must be matched exactly.
+fn ulp_err(y: f32, r: f64) -> f64 {
+    if r.is_nan() || y.is_nan() {
+        return if r.is_nan() && y.is_nan() {
+            0.0
+        } else {
+            f64::INFINITY
+        };
+    }
+    if r.is_infinite() {
+        return if y as f64 == r { 0.0 } else { f64::INFINITY };
+    }
+    let c = r as f32;
+    if c.is_infinite() && y == c {
+        return 0.0; // a correctly rounded overflow
+    }
+    let u = if c.is_infinite() {
+        ulp_of(f32::MAX)
+    } else {
+        ulp_of(c)
+    };
+    let yv = if y.is_infinite() {
+        2f64.powi(128).copysign(y as f64)
+    } else {
+        y as f64
+    };
+    (yv - r).abs() / u
+}
+
+/// The largest error seen and where.
+#[derive(Clone, Copy, Debug, Default)]
+struct Worst {
+    ulp: f64,
+    x: f32,
+    got: f32,
+    want: f64,
+}
+
+/// Error statistics of one function over one domain.
+#[derive(Clone, Debug, Default)]
+struct Errors {
+    n: u64,
+    worst: Worst,
+    over_half: u64,
+}
+
+impl Errors {
+    #[inline]
+    fn record(&mut self, x: f32, got: f32, want: f64, ulp: f64) {
+        self.n += 1;
+        if ulp > 0.5 {
+            self.over_half += 1;
+        }
+        // A NaN error is recorded as the worst.
+        if ulp > self.worst.ulp || ulp.is_nan() {
+            self.worst = Worst { ulp, x, got, want };
+        }
+    }
+
+    fn merge(mut self, o: Errors) -> Errors {
+        self.n += o.n;
+        self.over_half += o.over_half;
+        if o.worst.ulp > self.worst.ulp || o.worst.ulp.is_nan() {
+            self.worst = o.worst;
+        }
+        self
+    }
+
+    fn print(&self, name: &str, domain: &str) {
+        let w = &self.worst;
+        println!(
+            "{name:<24} {domain:<28} max {:.4} ULP at x = {:e} ({:#010x}): got {:e}, f64 {:e}; {} of {} over 0.5 ULP",
+            w.ulp,
+            w.x,
+            w.x.to_bits(),
+            w.got,
+            w.want,
+            self.over_half,
+            self.n
+        );
+    }
+}
+
+/// Failures of exact checks (x8 against scalar, invariants), with the first few kept.
+#[derive(Clone, Debug, Default)]
+struct Failures {
+    count: u64,
+    first: Vec<String>,
+}
+
+impl Failures {
+    #[inline]
+    fn check(&mut self, ok: bool, what: impl FnOnce() -> String) {
+        if !ok {
+            self.count += 1;
+            if self.first.len() < 8 {
+                self.first.push(what());
+            }
+        }
+    }
+
+    fn merge(mut self, o: Failures) -> Failures {
+        self.count += o.count;
+        for f in o.first {
+            if self.first.len() < 8 {
+                self.first.push(f);
+            }
+        }
+        self
+    }
+
+    fn assert_none(&self, name: &str) {
+        assert!(
+            self.count == 0,
+            "{name}: {} failures, first: {:#?}",
+            self.count,
+            self.first
+        );
+    }
+}
+
+/// Inclusive ranges of f32 bit patterns.
+type BitRanges = Vec<(u32, u32)>;
+
+/// Every f32 bit pattern.
+fn all_f32() -> BitRanges {
+    vec![(0, u32::MAX)]
+}
+
+/// Runs `f` over every bit pattern in `ranges`, 8 consecutive patterns at a time (the last
+/// group padded by repeating its last value; `f` gets the number of live lanes), in
+/// parallel with rayon, and merges the per-task states.
+fn sweep<S, F, M>(ranges: &BitRanges, merge: M, f: F) -> S
+where
+    S: Default + Send,
+    F: Fn(&mut S, [f32; 8], usize) + Sync,
+    M: Fn(S, S) -> S + Sync + Send,
+{
+    let mut tasks = Vec::new();
+    for &(lo, hi) in ranges {
+        let (mut a, end) = (lo as u64, hi as u64 + 1);
+        while a < end {
+            let b = (a + CHUNK).min(end);
+            tasks.push((a, b));
+            a = b;
+        }
+    }
+    tasks
+        .par_iter()
+        .fold(S::default, |mut s, &(a, b)| {
+            let mut i = a;
+            while i < b {
+                let live = ((b - i) as usize).min(8);
+                let mut xs = [0f32; 8];
+                for (l, x) in xs.iter_mut().enumerate() {
+                    *x = f32::from_bits((i + l.min(live - 1) as u64) as u32);
+                }
+                f(&mut s, xs, live);
+                i += 8;
+            }
+            s
+        })
+        .reduce(S::default, &merge)
+}
+
+/// `f` through the x8 instantiation and lane by lane through the scalar one; records a
+/// failure unless the bits agree, and returns the x8 result.
+#[inline(always)]
+fn x8_and_scalar(
+    xs: [f32; 8],
+    live: usize,
+    fails: &mut Failures,
+    name: &str,
+    x8: impl Fn(f32x8) -> f32x8,
+    scalar: impl Fn(f32) -> f32,
+) -> [f32; 8] {
+    let v = x8(f32x8::new(xs)).to_array();
+    for l in 0..live {
+        let s = scalar(xs[l]);
+        fails.check(v[l].to_bits() == s.to_bits(), || {
+            format!(
+                "{name}({:e} = {:#010x}): x8 {:#010x}, scalar {:#010x}",
+                xs[l],
+                xs[l].to_bits(),
+                v[l].to_bits(),
+                s.to_bits()
+            )
+        });
+    }
+    v
+}
+
+fn assert_max(name: &str, e: &Errors, bound: f64) {
+    assert!(
+        e.worst.ulp <= bound,
+        "{name}: max error {} ULP at x = {:e} exceeds the documented {bound} ULP (got {:e}, f64 {:e})",
+        e.worst.ulp,
+        e.worst.x,
+        e.worst.got,
+        e.worst.want
+    );
+}
+
+// ---------------------------------------------------------------------------------------
+// exp (and wide's exp for comparison)
+
+#[derive(Default)]
+struct ExpState {
+    ours: Errors,
+    wide_full: Errors,
+    wide_valid: Errors,
+    fails: Failures,
+}
+
+#[test]
+#[ignore = "exhaustive sweep: run in release with --ignored"]
+fn exp_exhaustive() {
+    let st: ExpState = sweep(
+        &all_f32(),
+        |a: ExpState, b: ExpState| ExpState {
+            ours: a.ours.merge(b.ours),
+            wide_full: a.wide_full.merge(b.wide_full),
+            wide_valid: a.wide_valid.merge(b.wide_valid),
+            fails: a.fails.merge(b.fails),
+        },
+        |st, xs, live| {
+            let y = x8_and_scalar(xs, live, &mut st.fails, "exp", math::exp, math::exp);
+            let w = f32x8::new(xs).exp().to_array();
+            for l in 0..live {
+                let x = xs[l];
+                if x.is_nan() {
+                    st.fails
+                        .check(y[l].is_nan(), || format!("exp(NaN) = {:e}", y[l]));
+                    continue;
+                }
+                if !(-104.0..=89.0).contains(&x) {
+                    // Outside the domain: saturated exactly (±inf included).
+                    let want = if x > 0.0 { f32::INFINITY } else { 0.0 };
+                    st.fails.check(y[l].to_bits() == want.to_bits(), || {
+                        format!("exp({x:e}) = {:e}, want {want:e}", y[l])
+                    });
+                    continue;
+                }
+                let r = (x as f64).exp();
+                st.ours.record(x, y[l], r, ulp_err(y[l], r));
+                let ew = ulp_err(w[l], r);
+                st.wide_full.record(x, w[l], r, ew);
+                // wide's exp returns 0 for |x| >= 87.3 (and for ±inf and NaN).
+                if x.abs() < 87.3 {
+                    st.wide_valid.record(x, w[l], r, ew);
+                }
+            }
+        },
+    );
+    println!();
+    st.ours.print("math::exp", "[-104, 89]");
+    st.wide_full.print("wide f32x8::exp", "[-104, 89]");
+    st.wide_valid.print("wide f32x8::exp", "(-87.3, 87.3)");
+    st.fails.assert_none("exp");
+    let n = 89f32.to_bits() as u64 + 1 + ((-104f32).to_bits() - 0x8000_0000) as u64 + 1;
+    assert_eq!(st.ours.n, n);
+    assert_max("exp", &st.ours, EXP_MAX_ULP);
+}
+
+// ---------------------------------------------------------------------------------------
+// expm1
+
+#[derive(Default)]
+struct Expm1State {
+    ours: Errors,
+    fails: Failures,
+}
+
+#[test]
+#[ignore = "exhaustive sweep: run in release with --ignored"]
+fn expm1_exhaustive() {
+    let st: Expm1State = sweep(
+        &all_f32(),
+        |a: Expm1State, b: Expm1State| Expm1State {
+            ours: a.ours.merge(b.ours),
+            fails: a.fails.merge(b.fails),
+        },
+        |st, xs, live| {
+            let y = x8_and_scalar(xs, live, &mut st.fails, "expm1", math::expm1, math::expm1);
+            for l in 0..live {
+                let x = xs[l];
+                if x.is_nan() {
+                    st.fails
+                        .check(y[l].is_nan(), || format!("expm1(NaN) = {:e}", y[l]));
+                    continue;
+                }
+                // All of f32, ±inf included (expm1(-inf) = -1, expm1(+inf) = +inf).
+                let r = (x as f64).exp_m1();
+                st.ours.record(x, y[l], r, ulp_err(y[l], r));
+                // Tiny inputs come back exactly (−0 gives +0).
+                if x.abs() < 1e-30 {
+                    st.fails
+                        .check(y[l] == x, || format!("expm1({x:e}) = {:e}, want x", y[l]));
+                }
+            }
+        },
+    );
+    println!();
+    st.ours.print("math::expm1", "all f32 (±inf included)");
+    st.fails.assert_none("expm1");
+    assert_eq!(st.ours.n, (1u64 << 32) - 2 * ((1 << 23) - 1));
+    assert_max("expm1", &st.ours, EXPM1_MAX_ULP);
+}
+
+// ---------------------------------------------------------------------------------------
+// exp_neg
+
+#[derive(Default)]
+struct ExpNegState {
+    /// Results >= 2^-126 (x <= 87.33).
+    normal: Errors,
+    /// Results below 2^-126: flushed, absolute error below 2^-126.
+    flushed: Errors,
+    fails: Failures,
+}
+
+#[test]
+#[ignore = "exhaustive sweep: run in release with --ignored"]
+fn exp_neg_exhaustive() {
+    // Domain x >= 0: every f32 in [0, +inf], -0, and the positive NaNs.
+    let ranges = vec![(0, 0x7fff_ffff), (0x8000_0000, 0x8000_0000)];
+    let st: ExpNegState = sweep(
+        &ranges,
+        |a: ExpNegState, b: ExpNegState| ExpNegState {
+            normal: a.normal.merge(b.normal),
+            flushed: a.flushed.merge(b.flushed),
+            fails: a.fails.merge(b.fails),
+        },
+        |st, xs, live| {
+            let y = x8_and_scalar(
+                xs,
+                live,
+                &mut st.fails,
+                "exp_neg",
+                math::exp_neg,
+                math::exp_neg,
+            );
+            for l in 0..live {
+                let x = xs[l];
+                if x.is_nan() {
+                    st.fails
+                        .check(y[l].is_nan(), || format!("exp_neg(NaN) = {:e}", y[l]));
+                    continue;
+                }
+                let r = (-(x as f64)).exp();
+                if r >= f32::MIN_POSITIVE as f64 {
+                    st.normal.record(x, y[l], r, ulp_err(y[l], r));
+                } else {
+                    let abs = (y[l] as f64 - r).abs();
+                    st.flushed
+                        .record(x, y[l], r, abs / f32::MIN_POSITIVE as f64);
+                }
+            }
+        },
+    );
+    println!();
+    st.normal
+        .print("math::exp_neg", "[0, 87.33] (results >= 2^-126)");
+    println!(
+        "math::exp_neg            (87.33, +inf]: max |error| {:e} = {:.4} * 2^-126 at x = {:e}",
+        st.flushed.worst.ulp * f32::MIN_POSITIVE as f64,
+        st.flushed.worst.ulp,
+        st.flushed.worst.x
+    );
+    st.fails.assert_none("exp_neg");
+    assert_max("exp_neg", &st.normal, EXP_NEG_MAX_ULP);
+    assert!(
+        st.flushed.worst.ulp < 1.0,
+        "exp_neg: absolute error {} * 2^-126 for results below 2^-126",
+        st.flushed.worst.ulp
+    );
+}
+
+// ---------------------------------------------------------------------------------------
+// exprel_neg
+
+#[derive(Default)]
+struct ExprelState {
+    /// [2^-100, 2^11]: the domain the kernels use.
+    domain: Errors,
+    /// (2^11, +inf]: 1/x.
+    beyond: Errors,
+    fails: Failures,
+}
+
+#[test]
+#[ignore = "exhaustive sweep: run in release with --ignored"]
+fn exprel_neg_exhaustive() {
+    // Every f32 >= 2^-100, +inf and the positive NaNs.
+    let ranges = vec![(2f32.powi(-100).to_bits(), 0x7fff_ffff)];
+    let top = 2f32.powi(11);
+    let st: ExprelState = sweep(
+        &ranges,
+        |a: ExprelState, b: ExprelState| ExprelState {
+            domain: a.domain.merge(b.domain),
+            beyond: a.beyond.merge(b.beyond),
+            fails: a.fails.merge(b.fails),
+        },
+        |st, xs, live| {
+            let y = x8_and_scalar(
+                xs,
+                live,
+                &mut st.fails,
+                "exprel_neg",
+                math::exprel_neg,
+                math::exprel_neg,
+            );
+            for l in 0..live {
+                let x = xs[l];
+                if x.is_nan() {
+                    st.fails
+                        .check(y[l].is_nan(), || format!("exprel_neg(NaN) = {:e}", y[l]));
+                    continue;
+                }
+                let xd = x as f64;
+                let r = if x.is_infinite() {
+                    0.0
+                } else {
+                    -(-xd).exp_m1() / xd
+                };
+                let e = ulp_err(y[l], r);
+                if x <= top {
+                    st.domain.record(x, y[l], r, e);
+                } else {
+                    st.beyond.record(x, y[l], r, e);
+                }
+            }
+        },
+    );
+    println!();
+    st.domain.print("math::exprel_neg", "[2^-100, 2^11]");
+    st.beyond.print("math::exprel_neg", "(2^11, +inf]");
+    st.fails.assert_none("exprel_neg");
+    assert_max("exprel_neg", &st.domain, EXPREL_NEG_MAX_ULP);
+    assert_max("exprel_neg (beyond)", &st.beyond, EXPREL_NEG_MAX_ULP);
+}
+
+// ---------------------------------------------------------------------------------------
+// exp_split
+
+/// |v − r| in ULP of `r` rounded to 24 bits with an unbounded exponent range (`m · 2^k`
+/// is not confined to the f32 range).
+fn ulp_err_unbounded(v: f64, r: f64) -> f64 {
+    let e = r.abs().log2().floor() as i32;
+    let s = r.abs() * pow2(-e); // in [1, 2] up to the log2 rounding
+    let e = if (s as f32) >= 2.0 {
+        e + 1
+    } else if s < 1.0 {
+        e - 1
+    } else {
+        e
+    };
+    (v - r).abs() / pow2(e - 23)
+}
+
+/// 2^n in f64 for n in [-1074, 1023], exact (`powi` goes through 1/2^-n, which overflows
+/// for n < -1023).
+fn pow2(n: i32) -> f64 {
+    let h = n / 2;
+    2f64.powi(h) * 2f64.powi(n - h)
+}
+
+#[derive(Default)]
+struct SplitState {
+    /// x in [-104, 89]: the part whose result fits the f32 range.
+    in_range: Errors,
+    /// x in [-708, 709], outside [-104, 89]: m·2^k against f64 (normal f64 results).
+    beyond: Errors,
+    /// The range of m for |x| <= 709, and for all inputs.
+    m_709: MinMax,
+    m_all: MinMax,
+    fails: Failures,
+}
+
+#[derive(Clone, Copy)]
+struct MinMax(f32, f32);
+
+impl Default for MinMax {
+    fn default() -> Self {
+        MinMax(f32::INFINITY, f32::NEG_INFINITY)
+    }
+}
+
+impl MinMax {
+    fn add(&mut self, v: f32) {
+        self.0 = self.0.min(v);
+        self.1 = self.1.max(v);
+    }
+    fn merge(self, o: MinMax) -> MinMax {
+        MinMax(self.0.min(o.0), self.1.max(o.1))
+    }
+}
+
+#[test]
+#[ignore = "exhaustive sweep: run in release with --ignored"]
+fn exp_split_exhaustive() {
+    let st: SplitState = sweep(
+        &all_f32(),
+        |a: SplitState, b: SplitState| SplitState {
+            in_range: a.in_range.merge(b.in_range),
+            beyond: a.beyond.merge(b.beyond),
+            m_709: a.m_709.merge(b.m_709),
+            m_all: a.m_all.merge(b.m_all),
+            fails: a.fails.merge(b.fails),
+        },
+        |st, xs, live| {
+            let (m8, k8) = math::exp_split(f32x8::new(xs));
+            let (m8, k8) = (m8.to_array(), k8.to_array());
+            for l in 0..live {
+                let x = xs[l];
+                let (m, k) = math::exp_split(x);
+                st.fails.check(
+                    m.to_bits() == m8[l].to_bits() && k.to_bits() == k8[l].to_bits(),
+                    || {
+                        format!(
+                            "exp_split({x:e}): x8 ({:e}, {:e}), scalar ({m:e}, {k:e})",
+                            m8[l], k8[l]
+                        )
+                    },
+                );
+                if x.is_nan() {
+                    st.fails
+                        .check(m.is_nan(), || format!("exp_split(NaN) = ({m:e}, {k:e})"));
+                    continue;
+                }
+                // For every non-NaN input (±inf clamped to ±2^20): m in [0.66, 1.50] and
+                // k an integer no larger than 2^20·log2(e); m in [0.70, 1.42] where
+                // |x| <= 709 (the rounding of x·log2(e) to f32 widens the reduced range
+                // beyond).
+                st.m_all.add(m);
+                st.fails.check(
+                    (0.66..=1.50).contains(&m) && k == k.round() && k.abs() <= 1_512_776.0,
+                    || format!("exp_split({x:e}) = ({m:e}, {k:e}): out of range"),
+                );
+                if (-709.0..=709.0).contains(&x) {
+                    st.m_709.add(m);
+                    st.fails.check((0.70..=1.42).contains(&m), || {
+                        format!("exp_split({x:e}) = ({m:e}, {k:e}): m out of range")
+                    });
+                }
+                if (-708.0..=709.0).contains(&x) {
+                    let r = (x as f64).exp();
+                    let v = m as f64 * pow2(k as i32);
+                    let e = ulp_err_unbounded(v, r);
+                    if (-104.0..=89.0).contains(&x) {
+                        st.in_range.record(x, m, r, e);
+                    } else {
+                        st.beyond.record(x, m, r, e);
+                    }
+                }
+            }
+        },
+    );
+    println!();
+    st.in_range.print("math::exp_split m·2^k", "[-104, 89]");
+    st.beyond
+        .print("math::exp_split m·2^k", "[-708, 709] \\ [-104, 89]");
+    println!(
+        "math::exp_split m range: [{}, {}] for |x| <= 709, [{}, {}] for all x",
+        st.m_709.0, st.m_709.1, st.m_all.0, st.m_all.1
+    );
+    st.fails.assert_none("exp_split");
+    assert_max("exp_split", &st.in_range, EXP_SPLIT_MAX_ULP);
+    assert_max("exp_split (beyond)", &st.beyond, EXP_SPLIT_MAX_ULP);
+}
+
+// ---------------------------------------------------------------------------------------
+// frexp
+
+#[test]
+#[ignore = "exhaustive sweep: run in release with --ignored"]
+fn frexp_exhaustive() {
+    let fails: Failures = sweep(&all_f32(), Failures::merge, |fails, xs, live| {
+        let (m8, e8) = math::frexp(f32x8::new(xs));
+        let (m8, e8) = (m8.to_array(), e8.to_array());
+        for l in 0..live {
+            let x = xs[l];
+            let (m, e) = math::frexp(x);
+            fails.check(
+                m.to_bits() == m8[l].to_bits() && e.to_bits() == e8[l].to_bits(),
+                || {
+                    format!(
+                        "frexp({x:e}): x8 ({:e}, {:e}), scalar ({m:e}, {e:e})",
+                        m8[l], e8[l]
+                    )
+                },
+            );
+            let ok = if x.is_nan() {
+                m.is_finite() && e == 128.0
+            } else if x.is_infinite() {
+                m == 1f32.copysign(x) && e == 128.0
+            } else if x == 0.0 {
+                m == 0.0 && e == -151.0
+            } else {
+                // Exact: x = m · 2^e with |m| in [1, 2), same sign, e an integer.
+                (1.0..2.0).contains(&m.abs())
+                    && m.is_sign_negative() == x.is_sign_negative()
+                    && e == e.round()
+                    && (-149.0..=127.0).contains(&e)
+                    && m as f64 * 2f64.powi(e as i32) == x as f64
+            };
+            fails.check(ok, || {
+                format!("frexp({x:e} = {:#010x}) = ({m:e}, {e:e})", x.to_bits())
+            });
+        }
+    });
+    println!(
+        "\nmath::frexp              all f32                      exact: {} failures of 2^32",
+        fails.count
+    );
+    fails.assert_none("frexp");
+}
+
+// ---------------------------------------------------------------------------------------
+// ldexp
+
+fn mix(mut z: u64) -> u64 {
+    // splitmix64 finalizer
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// Exponents that probe `m`: kind 0 puts the result in [2^-153, 2^-126) (subnormals,
+/// their rounding, the flush to zero); kind 1 at [2^126, 2^130) (overflow); kind 2 uniform
+/// in [-320, 320]; kind 3 extreme integers (far beyond where the product saturates).
+fn ldexp_exponent(m: f32, kind: u64) -> f32 {
+    let h = mix(((m.to_bits() as u64) << 2) | kind);
+    let em = if m == 0.0 {
+        0
+    } else {
+        ((m.to_bits() >> 23) & 0xff) as i64 - 127
+    };
+    let e = match kind {
+        0 => -127 - em - (h % 27) as i64,
+        1 => 126 - em + (h % 4) as i64,
+        2 => (h % 641) as i64 - 320,
+        _ => {
+            const EXTREME: [f32; 8] = [
+                0.0,
+                200.0,
+                250.0,
+                1000.0,
+                16_777_216.0,
+                2_147_483_648.0,
+                1e30,
+                3e38,
+            ];
+            let v = EXTREME[(h % 8) as usize];
+            return if h & 8 != 0 { -v } else { v };
+        }
+    };
+    e as f32
+}
+
+/// The correctly rounded `m · 2^e` (f64 holds the exact product for |e| <= 1000).
+fn ldexp_want(m: f32, e: f32) -> (f32, f64) {
+    let exact = if e.abs() <= 1000.0 {
+        m as f64 * f64::from_bits(((e as i64 + 1023) as u64) << 52)
+    } else if e > 0.0 && m != 0.0 {
+        f64::INFINITY.copysign(m as f64)
+    } else {
+        0f64.copysign(m as f64)
+    };
+    (exact as f32, exact)
+}
+
+#[derive(Default)]
+struct LdexpState {
+    errors: Errors,
+    fails: Failures,
+}
+
+#[test]
+#[ignore = "exhaustive sweep: run in release with --ignored"]
+fn ldexp_sweep() {
+    // Precondition: |m| in [2^-62, 2^39] or m = 0 (both signs), every such f32.
+    let lo = 2f32.powi(-62).to_bits();
+    let hi = 2f32.powi(39).to_bits();
+    let ranges = vec![
+        (0, 0),
+        (lo, hi),
+        (0x8000_0000, 0x8000_0000),
+        (lo | 0x8000_0000, hi | 0x8000_0000),
+    ];
+    let st: LdexpState = sweep(
+        &ranges,
+        |a: LdexpState, b: LdexpState| LdexpState {
+            errors: a.errors.merge(b.errors),
+            fails: a.fails.merge(b.fails),
+        },
+        |st, ms, live| {
+            // One exponent per m: kind 0 (subnormal results, the only ones that round)
+            // for half of the packets, kinds 1, 2, 3 in turn for the others.
+            let j = (ms[0].to_bits() as u64 / 8) % 6;
+            {
+                let kind = j.saturating_sub(2);
+                let es = ms.map(|m| ldexp_exponent(m, kind));
+                let y8 = math::ldexp(f32x8::new(ms), f32x8::new(es)).to_array();
+                for l in 0..live {
+                    let (m, e) = (ms[l], es[l]);
+                    let y = math::ldexp(m, e);
+                    st.fails.check(y.to_bits() == y8[l].to_bits(), || {
+                        format!("ldexp({m:e}, {e}): x8 {:e}, scalar {y:e}", y8[l])
+                    });
+                    let (c, exact) = ldexp_want(m, e);
+                    st.errors.record(m, y, exact, ulp_err(y, exact));
+                    // One rounding: the correctly rounded result, sign of zero and
+                    // saturation to ±inf / ±0 included.
+                    st.fails.check(y.to_bits() == c.to_bits(), || {
+                        format!("ldexp({m:e}, {e}) = {y:e}, want {c:e}")
+                    });
+                }
+            }
+        },
+    );
+    println!();
+    st.errors
+        .print("math::ldexp", "|m| in [2^-62, 2^39], one e each");
+    st.fails.assert_none("ldexp");
+    assert_max("ldexp", &st.errors, 0.5);
+}
