@@ -66,29 +66,18 @@ fn layer_colour<L: Lane>(layer: &LayerPlan, sun: Option<[f32; 3]>, dir: &[L; 3])
     c
 }
 
+/// The per-ray quantities shared by all media of a packet: |d| as (mantissa, exponent),
+/// the unit direction, the height and u = dot(d, up) split for the layers, and the sun
+/// direction when radiance is wanted.
 #[inline(always)]
-pub(crate) fn eval_packet<
-    L: Lane,
-    const AXIS: usize,
-    const UNIT: bool,
-    const WANT_T: bool,
-    const WANT_L: bool,
->(
+#[allow(clippy::type_complexity)]
+fn packet_geometry<L: Lane, const AXIS: usize, const UNIT: bool>(
     scene: &Scene,
     p: &PacketIn<L>,
-) -> PacketOut<L> {
+    want_l: bool,
+) -> (RayGeom<L>, (L, L), [L; 3], Option<[f32; 3]>) {
     let zero = L::splat(0.0);
     let one = L::splat(1.0);
-    let mut out = PacketOut {
-        tau: [zero; 3],
-        trans: [one; 3],
-        insc: [zero; 3],
-    };
-    let layers = &scene.layers;
-    if layers.is_empty() && scene.volumes.is_empty() {
-        return out;
-    }
-
     let (norm, dir) = if UNIT {
         ((one, zero), p.d)
     } else {
@@ -113,13 +102,46 @@ pub(crate) fn eval_packet<
         )
     };
     let geom = RayGeom::new(y, y_s, u, u_shift, p.t, norm);
-    let sun = if WANT_L {
+    let sun = if want_l {
         scene.sun_dir.map(|s| s.to_array())
     } else {
         None
     };
 
-    if layers.len() == 1 && scene.volumes.is_empty() {
+    (geom, norm, dir, sun)
+}
+
+/// True if the scene is one height fog layer and nothing else: the case
+/// [`eval_packet`] handles inline; everything else goes to [`eval_general`].
+#[inline(always)]
+fn is_single_layer(scene: &Scene) -> bool {
+    scene.layers.len() == 1 && scene.volumes.is_empty()
+}
+
+/// One height fog layer (see [`is_single_layer`]), inlined into the batch loop.
+#[inline(always)]
+pub(crate) fn eval_packet<
+    L: Lane,
+    const AXIS: usize,
+    const UNIT: bool,
+    const WANT_T: bool,
+    const WANT_L: bool,
+>(
+    scene: &Scene,
+    p: &PacketIn<L>,
+) -> PacketOut<L> {
+    let zero = L::splat(0.0);
+    let one = L::splat(1.0);
+    let mut out = PacketOut {
+        tau: [zero; 3],
+        trans: [one; 3],
+        insc: [zero; 3],
+    };
+    let layers = &scene.layers;
+    debug_assert!(is_single_layer(scene));
+    let (geom, _norm, dir, sun) = packet_geometry::<L, AXIS, UNIT>(scene, p, WANT_L);
+
+    {
         let layer = &layers[0];
         let (gm, ge) = layer_depth(layer, &geom);
         let grey = layer.sigma[0] == layer.sigma[1] && layer.sigma[1] == layer.sigma[2];
@@ -160,8 +182,6 @@ pub(crate) fn eval_packet<
         }
         return out;
     }
-
-    eval_general::<L, UNIT>(scene, p, &geom, norm, &dir, sun, WANT_T, WANT_L)
 }
 
 /// Several layers and/or fog volumes. Not inlined: one copy per lane type and direction
@@ -176,16 +196,15 @@ pub(crate) fn eval_packet<
 /// depth.)
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
-fn eval_general<L: Lane, const UNIT: bool>(
+fn eval_general<L: Lane, const AXIS: usize, const UNIT: bool>(
     scene: &Scene,
-    p: &PacketIn<L>,
-    geom: &RayGeom<L>,
-    norm: (L, L),
-    dir: &[L; 3],
-    sun: Option<[f32; 3]>,
+    p: PacketIn<L>,
     want_t: bool,
     want_l: bool,
 ) -> PacketOut<L> {
+    let p = &p;
+    let (geom, norm, dir, sun) = packet_geometry::<L, AXIS, UNIT>(scene, p, want_l);
+    let (geom, dir) = (&geom, &dir);
     let zero = L::splat(0.0);
     let one = L::splat(1.0);
     let mut out = PacketOut {
@@ -291,26 +310,37 @@ fn run<L: Lane, const AXIS: usize, const UNIT: bool, const WANT_T: bool, const W
     let (o0, o1, o2) = (&rays.o[0][..full], &rays.o[1][..full], &rays.o[2][..full]);
     let (d0, d1, d2) = (&rays.d[0][..full], &rays.d[1][..full], &rays.d[2][..full]);
     let t = &rays.t[..full];
-    let mut i = 0;
-    while i + L::LANES <= full {
-        let p = PacketIn {
-            o: [
-                load::<L>(o0, i, ro[0]),
-                load::<L>(o1, i, ro[1]),
-                load::<L>(o2, i, ro[2]),
-            ],
-            d: [
-                load::<L>(d0, i, rd[0]),
-                load::<L>(d1, i, rd[1]),
-                load::<L>(d2, i, rd[2]),
-            ],
-            t: L::load(&t[i..i + L::LANES]),
-        };
-        let r = eval_packet::<L, AXIS, UNIT, WANT_T, WANT_L>(scene, &p);
-        store(r.tau, &mut out.tau, i);
-        store(r.trans, &mut out.transmittance, i);
-        store(r.insc, &mut out.inscattering, i);
-        i += L::LANES;
+    // The choice between the single-layer kernel (inlined: no call, no spills) and the
+    // general one (out of line) is made once per batch, not per packet.
+    macro_rules! packets {
+        ($f:expr) => {{
+            let mut i = 0;
+            while i + L::LANES <= full {
+                let p = PacketIn {
+                    o: [
+                        load::<L>(o0, i, ro[0]),
+                        load::<L>(o1, i, ro[1]),
+                        load::<L>(o2, i, ro[2]),
+                    ],
+                    d: [
+                        load::<L>(d0, i, rd[0]),
+                        load::<L>(d1, i, rd[1]),
+                        load::<L>(d2, i, rd[2]),
+                    ],
+                    t: L::load(&t[i..i + L::LANES]),
+                };
+                let r = $f(p);
+                store(r.tau, &mut out.tau, i);
+                store(r.trans, &mut out.transmittance, i);
+                store(r.insc, &mut out.inscattering, i);
+                i += L::LANES;
+            }
+        }};
+    }
+    if is_single_layer(scene) {
+        packets!(|p: PacketIn<L>| eval_packet::<L, AXIS, UNIT, WANT_T, WANT_L>(scene, &p));
+    } else {
+        packets!(|p: PacketIn<L>| eval_general::<L, AXIS, UNIT>(scene, p, WANT_T, WANT_L));
     }
     if full < n {
         // The tail: pad to one 8-lane packet with a harmless ray (t = 0), evaluate, and
@@ -324,7 +354,12 @@ fn run<L: Lane, const AXIS: usize, const UNIT: bool, const WANT_T: bool, const W
         let o = [0, 1, 2].map(|c| f32x8::new(pad(rays.o[c], 0.0)));
         let d = [0, 1, 2].map(|c| f32x8::new(pad(rays.d[c], 1.0)));
         let t = f32x8::new(pad(rays.t, 0.0));
-        let r = eval_packet::<f32x8, AXIS, UNIT, WANT_T, WANT_L>(scene, &PacketIn { o, d, t });
+        let p = PacketIn { o, d, t };
+        let r = if is_single_layer(scene) {
+            eval_packet::<f32x8, AXIS, UNIT, WANT_T, WANT_L>(scene, &p)
+        } else {
+            eval_general::<f32x8, AXIS, UNIT>(scene, p, WANT_T, WANT_L)
+        };
         let put = |v: [f32x8; 3], dst: &mut Option<crate::ray::RgbSlices<'_>>| {
             if let Some(d) = dst {
                 for ch in 0..3 {

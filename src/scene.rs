@@ -223,7 +223,7 @@ fn shared_scale(sigma: [f32; 3]) -> Option<(f32, [f32; 3])> {
     let m = sigma.map(|s| (s as f64 * scale) as f32);
     let ok = m
         .iter()
-        .all(|&x| x == 0.0 || (x >= 1.0 / 65536.0 && x < 2.0));
+        .all(|&x| x == 0.0 || (1.0 / 65536.0..2.0).contains(&x));
     // The division by a power of two must be exact (no subnormal channel values).
     let exact = m
         .iter()

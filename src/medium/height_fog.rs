@@ -133,8 +133,11 @@ pub(crate) fn layer_depth<L: Lane>(layer: &LayerPlan, g: &RayGeom<L>) -> (L, L) 
     let de = L::splat(layer.b_split.e) + g.u_e + g.t_e;
 
     // φ(|Δ|) with |Δ| clamped to < 2^11; the rest of 1/|Δ| goes to the exponent.
+    // Below 2^-60, φ = 1 in f32; clamping there (not lower) keeps every intermediate of
+    // `exprel_neg` normal, so tiny falloffs run as fast as typical ones (subnormal
+    // arithmetic has a penalty on many CPUs).
     let dc = (dm.abs() * L::pow2i(de.clamp(L::splat(-100.0), L::splat(PHI_MAX_EXP))))
-        .max(L::splat(7.888_609e-31)); // 2^-100: φ = 1 below it
+        .max(L::splat(8.673_617e-19)); // 2^-60
     let phi = exprel_neg(dc);
     let phi_e = (L::splat(PHI_MAX_EXP) - de).min(L::splat(0.0));
 
