@@ -77,7 +77,7 @@ pub use ray::{Outputs, Rays, RgbSlices};
 pub use scene::{Component, HeightFogLayer, Lighting, Scene, SceneDesc, Sun};
 
 use glam::Vec3;
-use kernel::{PacketIn, Width};
+use kernel::Width;
 
 /// The SIMD instruction set `wide` was compiled for: `"avx2+fma"`, `"avx2"`, `"avx"`,
 /// `"sse4.1"`, `"sse2"` or `"scalar"`.
@@ -161,5 +161,8 @@ impl Scene {
     }
 }
 
-#[allow(dead_code)]
-fn _assert_packet_types(_: PacketIn<f32>) {}
+
+/// The README's Rust examples, compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
