@@ -7,8 +7,9 @@
 //! two, flushing results below 2^-126 (τ > 87.34) to zero, an absolute error below
 //! 1.2e-38. No branch.
 //!
-//! Measured: max error 1 ULP for results ≥ 2^-126 (see `tests/exhaustive.rs`, every f32
-//! in [0, 88] and +inf).
+//! Measured (`tests/exhaustive.rs`, every f32 ≥ 0, +inf included): max error 1.061 ULP (at
+//! x = 16.288475) for results ≥ 2^-126 (x ≤ 87.33), 0.81% of them over 0.5 ULP; beyond,
+//! an absolute error of at most 0.71 · 2^-126.
 
 use super::exp::{q4_signed, reduce_ln2_neg};
 use super::Lane;

@@ -50,8 +50,8 @@ pub(crate) struct RayGeom<L> {
     /// |d| = n_m · 2^n_e.
     pub n_m: L,
     pub n_e: L,
-    /// +0 for valid rays, NaN where u is not finite or t is NaN or negative; added to the
-    /// mantissa so that invalid rays give NaN instead of plausible numbers.
+    /// +0 for valid rays, NaN where u or the height is not finite or t is NaN or negative;
+    /// added to the mantissa so that invalid rays give NaN instead of plausible numbers.
     pub guard: L,
 }
 
@@ -85,8 +85,19 @@ impl<L: Lane> RayGeom<L> {
         let u_e = L::select(u.eq(L::splat(0.0)), L::splat(U_ZERO_EXPONENT), u_e);
         let (t_m, t_e) = frexp(t);
         let t_e = L::select(t.eq(L::splat(f32::INFINITY)), L::splat(INF_EXPONENT), t_e);
-        #[allow(clippy::eq_op)] // u - u is NaN exactly when u is not finite
-        let guard = (u - u) + L::select(t.ge(L::splat(0.0)), L::splat(0.0), L::splat(f32::NAN));
+        // u - u is NaN exactly when u is not finite, y_s - y_s when the origin's height is
+        // not (NaN or ±inf in a component of o that the height reads; y_s cannot overflow
+        // for a finite o), n_m - n_m when |d| is not (±inf in any component of d). Without
+        // the last two terms (found by fuzz/height_fog) invalid rays gave plausible
+        // numbers: for a NaN or infinite height a finite τ in a homogeneous layer (b = 0
+        // never reads it), τ = 0 for |b| > 2^40 (`layer_depth`'s `min` drops a NaN), and
+        // the limits τ = +inf or 0 for a height of ±inf; for an infinite component of d
+        // off the up axis, τ = +inf.
+        #[allow(clippy::eq_op)]
+        let guard = (u - u)
+            + (y_s - y_s)
+            + (norm.0 - norm.0)
+            + L::select(t.ge(L::splat(0.0)), L::splat(0.0), L::splat(f32::NAN));
         RayGeom {
             y,
             y_s,

@@ -31,6 +31,9 @@
 //! scene. The kernel mixes the volumes' and the height fog's colours by their optical
 //! depths (see `kernel.rs`).
 
+// `!(a > b)` is deliberate here: it is true for NaN as well.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 mod packet;
 pub(crate) mod profile;
 
@@ -219,6 +222,11 @@ pub(crate) struct VolumePlan {
     pub center: [f32; 3],
     /// M⁻¹, by rows: p = inv · (x − center).
     pub inv: [[f32; 3]; 3],
+    /// M, by rows: x − center = fwd · p.
+    pub fwd: [[f32; 3]; 3],
+    /// For an additive volume: its centre minus each cut-out's centre (rounded once from
+    /// f64), so that cut-outs are placed relative to it without a far origin's rounding.
+    pub cut_offsets: Vec<[f32; 3]>,
     /// Extinction per channel.
     pub sigma: [f32; 3],
     /// albedo · (L_amb + E_sun · T_sun / 4π for isotropic scattering) + emission.
@@ -418,12 +426,15 @@ pub(crate) fn compile(
         v.phase.validate(&f("phase"))?;
         let inv64 = aff.m.inverse();
         let inv = [0, 1, 2].map(|r| [0, 1, 2].map(|c| inv64.col(c)[r] as f32));
+        let fwd = [0, 1, 2].map(|r| [0, 1, 2].map(|c| aff.m.col(c)[r] as f32));
         let plan_geom = |sigma: [f32; 3], colour_const, colour_sun| VolumePlan {
             kind: aff.kind,
             profile: v.profile,
             edge_fade: aff.edge_fade as f32,
             center: aff.center.as_vec3().to_array(),
             inv,
+            fwd,
+            cut_offsets: Vec::new(),
             sigma,
             colour_const,
             colour_sun,
@@ -484,6 +495,19 @@ pub(crate) fn compile(
         }
         set.additive
             .push(plan_geom(sigma, colour_const, colour_sun));
+    }
+    // Centre offsets to every cut-out, in f64 from the f32 centres, rounded once.
+    let centres: Vec<DVec3> = set
+        .cuts
+        .iter()
+        .map(|c| Vec3::from_array(c.center).as_dvec3())
+        .collect();
+    for a in &mut set.additive {
+        let ca = Vec3::from_array(a.center).as_dvec3();
+        a.cut_offsets = centres
+            .iter()
+            .map(|cc| (ca - *cc).as_vec3().to_array())
+            .collect();
     }
     Ok(set)
 }

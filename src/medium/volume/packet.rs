@@ -18,7 +18,7 @@
 //! their start per lane and swept once, integrating the additive volume over the gaps.
 
 use super::profile::{integral, Chord, Piece};
-use super::{Kind, VolumePlan, MAX_CUTS};
+use super::{Kind, VolumePlan, VolumeSet, MAX_CUTS};
 use crate::math::{ldexp, Lane};
 use crate::scene::Scene;
 
@@ -75,6 +75,19 @@ fn frame<L: Lane>(v: &VolumePlan, o: &[L; 3], dir: &[L; 3]) -> Frame<L> {
         )
     };
     let q = [0, 1, 2].map(|r| mv(&dq, r).clamp(far.neg(), far));
+    frame_at(v, q, dir)
+}
+
+/// The frame of a ray whose origin is `q` in the volume's unit space.
+#[inline(always)]
+fn frame_at<L: Lane>(v: &VolumePlan, q: [L; 3], dir: &[L; 3]) -> Frame<L> {
+    let m = &v.inv;
+    let mv = |x: &[L; 3], r: usize| {
+        x[0].mul_add(
+            L::splat(m[r][0]),
+            x[1].mul_add(L::splat(m[r][1]), x[2] * L::splat(m[r][2])),
+        )
+    };
     let e = [0, 1, 2].map(|r| mv(dir, r));
     let ee = e[0].mul_add(e[0], e[1].mul_add(e[1], e[2] * e[2]));
     let a = ee.sqrt().max(L::splat(1e-30));
@@ -82,6 +95,13 @@ fn frame<L: Lane>(v: &VolumePlan, o: &[L; 3], dir: &[L; 3]) -> Frame<L> {
     let eh = e.map(|x| x * inv_a);
     let uo = q[0].mul_add(eh[0], q[1].mul_add(eh[1], q[2] * eh[2]));
     let qc = [0, 1, 2].map(|i| uo.mul_add(eh[i].neg(), q[i]));
+    // Project twice ("twice is enough"): for a far origin u_o is large and the first
+    // projection leaves an error of ε·|u_o| along ê, which would enter h² squared (a
+    // thin ellipsoid seen edge-on from 1e5 away loses its chord otherwise). The second
+    // removes it to ε² · |u_o|.
+    let du = qc[0].mul_add(eh[0], qc[1].mul_add(eh[1], qc[2] * eh[2]));
+    let qc = [0, 1, 2].map(|i| du.mul_add(eh[i].neg(), qc[i]));
+    let uo = uo + du;
     Frame {
         sc: uo.neg() * inv_a,
         qc,
@@ -200,46 +220,84 @@ fn cube_integral<L: Lane>(plan: &VolumePlan, f: &Frame<L>, va: L, vb: L) -> L {
     L::select(len.gt(zero), acc * L::splat(1.0 / 6.0), zero)
 }
 
-/// One cut's interval in world distance about its own closest approach, and that
-/// closest approach's distance from the origin. Empty intervals are (+inf, +inf).
-#[derive(Clone, Copy)]
-struct CutSpan<L> {
-    sc: L,
-    lo: L,
-    hi: L,
-}
-
+/// The cut-outs' intervals along the ray in one additive volume's coordinate v (world
+/// distance from that volume's closest approach), sorted by their start; empty intervals
+/// are (+inf, +inf).
+///
+/// Each cut's frame is taken from the additive volume's closest point x_c = c + M·q_c,
+/// written relative to the cut's centre as `(c − c_cut) + M·q_c` (a per-scene constant
+/// plus an O(size) vector), never from the far origin: the two volumes' positions along
+/// the ray are then as accurate relative to each other as the scene's geometry, and a
+/// far camera shifts them together, as a perturbation of its position would.
 #[inline(always)]
-fn cut_span<L: Lane>(plan: &VolumePlan, o: &[L; 3], dir: &[L; 3]) -> CutSpan<L> {
-    let f = frame(plan, o, dir);
-    let (lo, hi) = match plan.kind {
-        Kind::Ball => {
-            let (c, _) = ball_piece(&f, L::splat(0.0));
-            let r = c.w / f.a;
-            (r.neg(), r)
-        }
-        Kind::Cube => cube_interval(&f),
-    };
+fn cut_spans<L: Lane>(
+    set: &VolumeSet,
+    k: usize,
+    f: &Frame<L>,
+    dir: &[L; 3],
+    out: &mut [(L, L); MAX_CUTS],
+) {
+    let plan = &set.additive[k];
+    let fm = &plan.fwd;
+    // x_c − c, world.
+    let xr = [0, 1, 2].map(|r| {
+        f.qc[0].mul_add(
+            L::splat(fm[r][0]),
+            f.qc[1].mul_add(L::splat(fm[r][1]), f.qc[2] * L::splat(fm[r][2])),
+        )
+    });
     let inf = L::splat(f32::INFINITY);
-    let empty = lo.ge(hi);
-    CutSpan {
-        sc: f.sc,
-        lo: L::select(empty, inf, lo),
-        hi: L::select(empty, inf, hi),
+    let far = L::splat(FAR);
+    for (j, cut) in set.cuts.iter().enumerate() {
+        let off = plan.cut_offsets[j];
+        let dq = [0, 1, 2].map(|i| xr[i] + L::splat(off[i]));
+        let m = &cut.inv;
+        let q = [0, 1, 2].map(|r| {
+            dq[0]
+                .mul_add(
+                    L::splat(m[r][0]),
+                    dq[1].mul_add(L::splat(m[r][1]), dq[2] * L::splat(m[r][2])),
+                )
+                .clamp(far.neg(), far)
+        });
+        let g = frame_at(cut, q, dir);
+        let (lo, hi) = match cut.kind {
+            Kind::Ball => {
+                let (c, _) = ball_piece(&g, L::splat(0.0));
+                let r = c.w / g.a;
+                (r.neg(), r)
+            }
+            Kind::Cube => cube_interval(&g),
+        };
+        let empty = lo.ge(hi);
+        out[j] = (
+            L::select(empty, inf, g.sc + lo),
+            L::select(empty, inf, g.sc + hi),
+        );
+    }
+    // Sort by start (insertion by compare-exchange, per lane).
+    let n = set.cuts.len();
+    for i in 1..n {
+        for j in (1..=i).rev() {
+            let (x, y) = (out[j - 1], out[j]);
+            let swap = x.0.gt(y.0);
+            out[j - 1] = (L::select(swap, y.0, x.0), L::select(swap, y.1, x.1));
+            out[j] = (L::select(swap, x.0, y.0), L::select(swap, x.1, y.1));
+        }
     }
 }
 
 /// ∫ density · world length over the additive volume's segment minus the cuts.
 #[inline(always)]
-fn volume_depth<L: Lane>(
-    plan: &VolumePlan,
-    o: &[L; 3],
-    dir: &[L; 3],
-    t_w: L,
-    cuts: &[CutSpan<L>],
-) -> L {
+fn volume_depth<L: Lane>(set: &VolumeSet, k: usize, o: &[L; 3], dir: &[L; 3], t_w: L) -> L {
+    let plan = &set.additive[k];
     let f = frame(plan, o, dir);
     let zero = L::splat(0.0);
+    let mut spans = [(zero, zero); MAX_CUTS];
+    if !set.cuts.is_empty() {
+        cut_spans(set, k, &f, dir, &mut spans);
+    }
+    let cuts = &spans[..set.cuts.len()];
     match plan.kind {
         Kind::Ball => {
             let (chord, seg) = ball_piece(&f, t_w);
@@ -252,10 +310,9 @@ fn volume_depth<L: Lane>(
             let mut pos = seg.ua;
             let mut pos_d = seg.da;
             let mut acc = zero;
-            for c in cuts {
-                let shift = c.sc - f.sc;
-                let ca = f.a * (shift + c.lo);
-                let cb = f.a * (shift + c.hi);
+            for &(lo, hi) in cuts {
+                let ca = f.a * lo;
+                let cb = f.a * hi;
                 let end_is_ub = ca.ge(seg.ub);
                 let end = L::select(end_is_ub, seg.ub, ca.max(pos));
                 let end_d = L::select(end_is_ub, seg.db, (w - end).max(zero));
@@ -294,10 +351,7 @@ fn volume_depth<L: Lane>(
             }
             let mut pos = va;
             let mut acc = zero;
-            for c in cuts {
-                let shift = c.sc - f.sc;
-                let ca = shift + c.lo;
-                let cb = shift + c.hi;
+            for &(ca, cb) in cuts {
                 let end = ca.min(vb).max(pos);
                 acc = acc + cube_integral(plan, &f, pos, end);
                 pos = pos.max(cb.min(vb));
@@ -340,35 +394,6 @@ pub(crate) fn eval_volumes<L: Lane, const UNIT: bool, const WANT_L: bool>(
     };
     let (o, dir) = (*o, *dir);
     let set = &scene.volumes;
-    // The cut-outs' spans, sorted by start per lane (insertion by compare-exchange).
-    let mut spans = [CutSpan {
-        sc: zero,
-        lo: zero,
-        hi: zero,
-    }; MAX_CUTS];
-    let nc = set.cuts.len();
-    for (k, c) in set.cuts.iter().enumerate() {
-        spans[k] = cut_span(c, &o, &dir);
-    }
-    for i in 1..nc {
-        for j in (1..=i).rev() {
-            // Compare by the start in a common frame: sc + lo.
-            let (x, y) = (spans[j - 1], spans[j]);
-            let swap = (x.sc + x.lo).gt(y.sc + y.lo);
-            spans[j - 1] = CutSpan {
-                sc: L::select(swap, y.sc, x.sc),
-                lo: L::select(swap, y.lo, x.lo),
-                hi: L::select(swap, y.hi, x.hi),
-            };
-            spans[j] = CutSpan {
-                sc: L::select(swap, x.sc, y.sc),
-                lo: L::select(swap, x.lo, y.lo),
-                hi: L::select(swap, x.hi, y.hi),
-            };
-        }
-    }
-    let cuts = &spans[..nc];
-
     let mut out = VolOut {
         tau: [zero; 3],
         colour: [zero; 3],
@@ -377,9 +402,9 @@ pub(crate) fn eval_volumes<L: Lane, const UNIT: bool, const WANT_L: bool>(
     let mut den = [zero; 3];
     let cap = L::splat(1e30);
     let t_w = t_w.min(L::splat(f32::MAX));
-    for plan in &set.additive {
+    for (k, plan) in set.additive.iter().enumerate() {
         // Capped so that a zero extinction channel gives 0, never inf · 0.
-        let g = volume_depth(plan, &o, &dir, t_w, cuts).min(L::splat(f32::MAX));
+        let g = volume_depth(set, k, &o, &dir, t_w).min(L::splat(f32::MAX));
         let mut c = plan.colour_const.map(L::splat);
         if WANT_L {
             if let (Some(s), Some((phase, k))) = (sun, &plan.colour_sun) {
