@@ -180,8 +180,8 @@ pub(crate) fn eval_packet<
                 out.insc[ch] = c[ch] * (one - out.trans[ch]);
             }
         }
-        return out;
     }
+    out
 }
 
 /// Several layers and/or fog volumes. Not inlined: one copy per lane type and direction

@@ -161,7 +161,6 @@ impl Scene {
     }
 }
 
-
 /// The README's Rust examples, compiled and run as doctests.
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]

@@ -11,6 +11,11 @@
 //! - the invariants (no NaN, τ ≥ 0, 0 ≤ T ≤ 1, L_in finite and ≥ 0) for every finite input.
 //!
 //! `PROPTEST_CASES=10000 cargo test --release --test height_fog` for a longer run.
+#![allow(
+    clippy::needless_range_loop,
+    clippy::type_complexity,
+    clippy::unnecessary_lazy_evaluations
+)]
 
 use analytic_fog::reference::{self, check_sample};
 use analytic_fog::{

@@ -7,7 +7,8 @@
 //! for:
 //!
 //! - no panic, anywhere;
-//! - x8, scalar and rayon bit-identical for every output, NaN included;
+//! - x8, scalar and rayon bit-identical for every output (any NaN matching any NaN: see
+//!   `same`);
 //! - for a valid ray (finite o and d, t ≥ 0 or +inf) in a valid scene: no NaN, τ ≥ 0,
 //!   0 ≤ T ≤ 1, L_in ≥ 0 and not NaN;
 //! - for an invalid ray (NaN or ±inf in o or d, t NaN or negative) in a scene with at
@@ -169,6 +170,14 @@ fn run(scene: &Scene, rays: &Rays, mode: u8, n: usize) -> Vec<Vec<f32>> {
     o
 }
 
+/// Bit-identical, except that any NaN equals any NaN: an invalid ray's outputs combine
+/// NaNs from several sources (the input's payload, the volumes' canonical NaN, the height
+/// fog's guard), and which payload survives an operation on two NaNs is up to the
+/// instruction the compiler picks for each instantiation.
+fn same(a: f32, b: f32) -> bool {
+    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+}
+
 fuzz_target!(|data: &[u8]| {
     let mut inp = Input { data, at: 0 };
     let desc = scene_from(&mut inp);
@@ -194,16 +203,8 @@ fuzz_target!(|data: &[u8]| {
     let par = run(&scene, &rays, 2, n);
     for k in 0..9 {
         for i in 0..n {
-            assert_eq!(
-                x8[k][i].to_bits(),
-                sc[k][i].to_bits(),
-                "x8 vs scalar, output {k} ray {i}"
-            );
-            assert_eq!(
-                x8[k][i].to_bits(),
-                par[k][i].to_bits(),
-                "x8 vs par, output {k} ray {i}"
-            );
+            assert!(same(x8[k][i], sc[k][i]), "x8 vs scalar, output {k} ray {i}");
+            assert!(same(x8[k][i], par[k][i]), "x8 vs par, output {k} ray {i}");
         }
     }
     for i in 0..n {

@@ -9,11 +9,12 @@
 //! and the sign put back. Both branches are evaluated only where some lane needs them.
 //!
 //! Domain: all f32 (`±inf` for `±inf`, NaN for NaN).
-//! Measured: max error 2 ULP over every f32 (see `tests/exhaustive_volume_math.rs`).
+//! Measured: max error 1.78 ULP over every f32 (`tests/exhaustive_volume_math.rs`, against
+//! std's f64 `asinh`; asserted bound 2 ULP).
 
 use super::{log1p, log_scaled, Lane};
 
-/// `asinh(x)`, max error 2 ULP.
+/// `asinh(x)`, max error 1.78 ULP.
 #[inline(always)]
 pub fn asinh<L: Lane>(x: L) -> L {
     let one = L::splat(1.0);

@@ -7,7 +7,8 @@
 //! back exactly. Kernel shared with [`log`](super::log).
 //!
 //! Domain: x ≥ −1 (`log1p(−1) = −inf`, NaN below and for NaN, `+inf` for `+inf`).
-//! Measured: max error 1 ULP over every f32 ≥ −1 (see `tests/exhaustive_volume_math.rs`).
+//! Measured: max error 0.84 ULP over every f32 (`tests/exhaustive_volume_math.rs`, against
+//! std's f64 `ln_1p`; asserted bound 1 ULP).
 
 use super::frexp;
 use super::log::log_kernel;
@@ -15,7 +16,7 @@ use super::Lane;
 
 const SQRT2: f32 = core::f32::consts::SQRT_2;
 
-/// `ln(1 + x)`, max error 1 ULP.
+/// `ln(1 + x)`, max error 0.84 ULP.
 #[inline(always)]
 pub fn log1p<L: Lane>(x: L) -> L {
     let one = L::splat(1.0);

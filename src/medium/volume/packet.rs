@@ -363,7 +363,7 @@ fn volume_depth<L: Lane>(set: &VolumeSet, k: usize, o: &[L; 3], dir: &[L; 3], t_
 
 /// The volumes' optical depth and colour for a packet. `o`: origins; `dir`: unit
 /// directions (zero for a zero direction); `t_w`: segment length in world units (may be
-/// +inf); `guard`: +0, or NaN for invalid rays (added to τ); `sun`: toward the sun, when
+/// +inf); invalid rays get τ = NaN; `sun`: toward the sun, when
 /// some colour depends on the view direction and radiance is wanted.
 #[inline(never)] // one copy per (L, UNIT, WANT_L), not one per kernel variant: keeps compile time sane
 pub(crate) fn eval_volumes<L: Lane, const UNIT: bool, const WANT_L: bool>(
@@ -378,13 +378,13 @@ pub(crate) fn eval_volumes<L: Lane, const UNIT: bool, const WANT_L: bool>(
     let zero = L::splat(0.0);
     // NaN for invalid rays (a non-finite origin or direction, t NaN or negative).
     #[allow(clippy::eq_op)] // x − x is NaN exactly when x is not finite
-    let guard = (o[0] - o[0])
-        + (o[1] - o[1])
-        + (o[2] - o[2])
-        + (d[0] - d[0])
-        + (d[1] - d[1])
-        + (d[2] - d[2])
-        + L::select(t.ge(zero), zero, L::splat(f32::NAN));
+    let valid = (o[0] - o[0]).eq(zero)
+        & (o[1] - o[1]).eq(zero)
+        & (o[2] - o[2]).eq(zero)
+        & (d[0] - d[0]).eq(zero)
+        & (d[1] - d[1]).eq(zero)
+        & (d[2] - d[2]).eq(zero)
+        & t.ge(zero);
     // The segment's length in world units: t · |d| (0 for t = 0 or d = 0).
     let t_w = if UNIT {
         t
@@ -425,7 +425,9 @@ pub(crate) fn eval_volumes<L: Lane, const UNIT: bool, const WANT_L: bool>(
         }
     }
     for ch in 0..3 {
-        out.tau[ch] = out.tau[ch] + guard;
+        // One canonical NaN (not a payload from the input, which the compiler may
+        // propagate differently in the scalar and x8 instantiations).
+        out.tau[ch] = L::select(valid, out.tau[ch], L::splat(f32::NAN));
         if WANT_L {
             out.colour[ch] = num[ch] / den[ch].max(L::splat(1e-30));
         }
