@@ -408,9 +408,12 @@ pub(crate) fn eval_volumes<L: Lane, const UNIT: bool, const WANT_L: bool>(
         let mut c = plan.colour_const.map(L::splat);
         if WANT_L {
             if let (Some(s), Some((phase, k))) = (sun, &plan.colour_sun) {
-                let p = phase.eval(dir, s);
+                // Capped (NaN → cap too): a batch marked unit-length whose directions are
+                // not would otherwise overflow the phase function and give inf · 0 = NaN
+                // in L_in (found by fuzz/volumes).
+                let p = phase.eval(dir, s).min(L::splat(1e30));
                 for ch in 0..3 {
-                    c[ch] = p.mul_add(L::splat(k[ch]), c[ch]);
+                    c[ch] = p.mul_add(L::splat(k[ch]), c[ch]).min(L::splat(f32::MAX));
                 }
             }
         }

@@ -198,5 +198,7 @@ pub(crate) fn integral<L: Lane>(profile: Profile, c: &Chord<L>, pc: &Piece<L>) -
             v
         }
     };
-    L::select(len.gt(zero), r, zero)
+    // The density is ≥ 0: a negative result (linear and spiky subtract nearly equal terms
+    // where the density vanishes) is rounding, and τ must not go below 0 (fuzz/volumes).
+    L::select(len.gt(zero), r.max(zero), zero)
 }
