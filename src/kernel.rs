@@ -9,6 +9,7 @@
 
 use crate::math::{exp_neg, ldexp, pow2_pair, Lane};
 use crate::medium::height_fog::{direction_norm, layer_depth, RayGeom, TWO_M64};
+use crate::medium::volume::clamp_colour;
 use crate::ray::{Outputs, Rays};
 use crate::scene::{LayerPlan, Scene, UpAxis};
 use wide::f32x8;
@@ -177,7 +178,7 @@ pub(crate) fn eval_packet<
         if WANT_L {
             let c = layer_colour(layer, sun, &dir);
             for ch in 0..3 {
-                out.insc[ch] = c[ch] * (one - out.trans[ch]);
+                out.insc[ch] = clamp_colour(c[ch]) * (one - out.trans[ch]);
             }
         }
     }
@@ -262,12 +263,12 @@ fn eval_general<L: Lane, const AXIS: usize, const UNIT: bool>(
             for ch in 0..3 {
                 let s = layer.sigma[ch];
                 let w = ldexp(gm * L::splat(s.m), ge + L::splat(s.e) - emax[ch]);
-                num[ch] = w.mul_add(c[ch], num[ch]);
+                num[ch] = w.mul_add(clamp_colour(c[ch]), num[ch]);
                 den[ch] = den[ch] + w;
             }
         }
         for ch in 0..3 {
-            let colour = num[ch] / den[ch].max(L::splat(1e-30));
+            let colour = clamp_colour(num[ch] / den[ch].max(L::splat(1e-30)));
             let colour = match &vol {
                 Some(v) => v.mix(ch, colour, tau_h[ch]),
                 None => colour,

@@ -1240,3 +1240,40 @@ fn json_schema() {
         r#"{"volumes": [{"shape": {"sphere": {"center": [0, 0, 0], "radius": 1}}, "density": 2}]}"#;
     assert!(serde_json::from_str::<SceneDesc>(bad).is_err());
 }
+
+/// Fog colours that overflow to +∞ at run time (a huge sun radiance times a forward
+/// phase peak) next to height fog: the τ-weighted colour mix must not make ∞ − ∞ or
+/// 0 · ∞ of them (found by fuzz/volumes in CI).
+#[test]
+fn overflowed_volume_colour_gives_no_nan() {
+    // Volumes and one layer (general kernel), one layer alone (single-layer kernel), two
+    // layers (general kernel without volumes).
+    for variant in 0..3 {
+        let mut desc = lit_scene(&mut Rng::new(11), true);
+        // The phase function's peak times this radiance overflows at run time only.
+        desc.lighting.sun.as_mut().expect("sun").radiance = Vec3::splat(3e38);
+        if variant > 0 {
+            desc.volumes.clear();
+        }
+        if variant == 2 {
+            let mut l = desc.height_fog[0].clone();
+            l.falloff = -0.2;
+            desc.height_fog.push(l);
+        }
+        let scene = Scene::new(desc).expect("valid scene");
+        let mut r = Rng::new(12);
+        for i in 0..4000 {
+            let o = v3(r.unit() * r.log_range(1e-3, 1e3));
+            let d = v3(r.unit());
+            let t = [0.0, 1.0, 100.0, f32::INFINITY][i % 4];
+            let s = scene.eval_ray(o, d, t);
+            for ch in 0..3 {
+                let li = s.inscattering[ch];
+                assert!(
+                    !li.is_nan() && li >= 0.0,
+                    "L_in {li} for {o} {d} {t} ({variant})"
+                );
+            }
+        }
+    }
+}

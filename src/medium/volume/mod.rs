@@ -37,7 +37,7 @@
 mod packet;
 pub(crate) mod profile;
 
-pub(crate) use packet::eval_volumes;
+pub(crate) use packet::{clamp_colour, eval_volumes};
 
 use crate::error::SceneError;
 use crate::light::Phase;

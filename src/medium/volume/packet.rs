@@ -38,10 +38,22 @@ impl<L: Lane> VolOut<L> {
         let cap = L::splat(1e30);
         let tv = self.tau[ch].min(cap);
         let th = tau_h.min(cap);
+        let zero = L::splat(0.0);
         let sum = tv + th;
-        let wv = L::select(sum.gt(L::splat(0.0)), tv / sum, L::splat(0.0));
-        wv.mul_add(self.colour[ch] - colour_h, colour_h)
+        let wv = L::select(sum.gt(zero), tv / sum, zero);
+        // Both colours are clamped to f32::MAX (`clamp_colour`), so the difference is
+        // finite: no ∞ − ∞ or 0 · ∞ from a colour that overflowed (found by fuzz/volumes).
+        let cv = clamp_colour(self.colour[ch]);
+        wv.mul_add(cv - colour_h, colour_h)
     }
+}
+
+/// A fog colour can overflow to +∞ at run time (a huge sun radiance times a phase peak);
+/// f32::MAX keeps `colour · (1 − T)` and the colour mixes free of NaN. NaN stays NaN.
+#[inline(always)]
+pub(crate) fn clamp_colour<L: Lane>(c: L) -> L {
+    // vminps(a, b) = a < b ? a : b: NaN in `c` is returned as is.
+    L::splat(f32::MAX).min(c)
 }
 
 const FAR: f32 = 1e18;
