@@ -124,6 +124,9 @@ fn eval_matches_library_bit_for_bit() {
     let b = check_against_library("valley.json", &["--chunk-rays", "7", "--quiet"]);
     assert_eq!(a, b);
     check_against_library("haze.json", &[]);
+    // Height fog with fog volumes and a cut-out (39 of the 313 rays cross a volume).
+    let v = check_against_library("banks.json", &[]);
+    assert_ne!(v, a, "the volumes change the output");
 }
 
 #[test]
