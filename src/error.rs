@@ -73,3 +73,62 @@ impl fmt::Display for BatchError {
 }
 
 impl std::error::Error for BatchError {}
+
+/// A framebuffer fog pass ([`Scene::fog_pass`](crate::Scene::fog_pass)) or a camera
+/// ([`Camera`](crate::pass::Camera)) that cannot be used.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PassError {
+    /// A buffer's length does not fit the frame: `buffer` is `"depth"`, `"colour"` (RGB or
+    /// RGBA) or `"colour.r"`, `"colour.g"`, `"colour.b"` (planar).
+    BufferLength {
+        buffer: &'static str,
+        expected: usize,
+        found: usize,
+        width: usize,
+        height: usize,
+    },
+    /// `width × height` (times the channels of a buffer) does not fit in `usize`.
+    FrameTooLarge { width: usize, height: usize },
+    /// A pixel outside the frame was asked for.
+    PixelOutside {
+        x: usize,
+        y: usize,
+        width: usize,
+        height: usize,
+    },
+    /// A camera parameter or depth convention parameter is unusable: `field` names it
+    /// (`"fov_y"`, `"depth.near"`, ...), `reason` says why.
+    InvalidParameter { field: &'static str, reason: String },
+}
+
+impl fmt::Display for PassError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PassError::BufferLength {
+                buffer,
+                expected,
+                found,
+                width,
+                height,
+            } => write!(
+                f,
+                "{buffer}: has {found} elements, a {width}x{height} frame needs {expected}"
+            ),
+            PassError::FrameTooLarge { width, height } => {
+                write!(
+                    f,
+                    "frame {width}x{height}: too large for this platform's usize"
+                )
+            }
+            PassError::PixelOutside {
+                x,
+                y,
+                width,
+                height,
+            } => write!(f, "pixel ({x}, {y}): outside the {width}x{height} frame"),
+            PassError::InvalidParameter { field, reason } => write!(f, "{field}: {reason}"),
+        }
+    }
+}
+
+impl std::error::Error for PassError {}

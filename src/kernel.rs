@@ -437,3 +437,50 @@ pub(crate) fn evaluate_par(scene: &Scene, rays: &Rays<'_>, out: Outputs<'_>) {
         || evaluate_par(scene, &rb, b),
     );
 }
+
+/// The ray source and result sink of [`run_packets`]: `make(i)` produces packet `i`,
+/// `take(i, &out)` consumes its result. (A trait with `#[inline(always)]` methods rather
+/// than closures, so that both are inlined into the packet loop.)
+pub(crate) trait PacketIo {
+    fn make(&mut self, i: usize) -> PacketIn<f32x8>;
+    fn take(&mut self, i: usize, out: &PacketOut<f32x8>);
+}
+
+/// Evaluates `count` packets of 8 rays that `io.make(i)` produces (transmittance and
+/// in-scattering wanted, like a batch with both outputs), handing each result to
+/// `io.take(i, &out)`: the entry point of the framebuffer pass (`crate::pass`), which
+/// generates its rays in registers instead of reading them from slices.
+///
+/// The kernel is chosen once per call (up axis, single layer or general), as [`run`]
+/// chooses it once per batch, and the packets go through the same [`eval_packet`] /
+/// [`eval_general`] instantiations as a batch with `unit == UNIT`, so a ray gives the same
+/// bits here as through `Scene::evaluate`. Components the kernel does not read (see
+/// [`reads`]) may hold anything.
+#[inline(always)]
+pub(crate) fn run_packets<const UNIT: bool, S: PacketIo>(scene: &Scene, count: usize, io: &mut S) {
+    #[inline(always)]
+    fn go<const AXIS: usize, const UNIT: bool, S: PacketIo>(
+        scene: &Scene,
+        count: usize,
+        io: &mut S,
+    ) {
+        if is_single_layer(scene) {
+            for i in 0..count {
+                let p = io.make(i);
+                let r = eval_packet::<f32x8, AXIS, UNIT, true, true>(scene, &p);
+                io.take(i, &r);
+            }
+        } else {
+            for i in 0..count {
+                let r = eval_general::<f32x8, AXIS, UNIT>(scene, io.make(i), true, true);
+                io.take(i, &r);
+            }
+        }
+    }
+    match scene.axis {
+        UpAxis::Axis(0) => go::<0, UNIT, S>(scene, count, io),
+        UpAxis::Axis(1) => go::<1, UNIT, S>(scene, count, io),
+        UpAxis::Axis(2) => go::<2, UNIT, S>(scene, count, io),
+        _ => go::<GENERAL, UNIT, S>(scene, count, io),
+    }
+}

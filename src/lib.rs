@@ -42,6 +42,12 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
+//! ## Framebuffer pass
+//! [`Scene::fog_pass`] fogs a renderer's frame in place from a [`pass::Camera`], a depth
+//! buffer and a colour buffer (RGB, RGBA or planar), 8 pixels at a time and in parallel;
+//! each pixel is bit-identical to the batch API's result for the ray
+//! [`pass::Camera::pixel_ray`] returns. See the [`pass`] module.
+//!
 //! ## Feature flags
 //! - `serde`: `Serialize`/`Deserialize` for the scene description types (the JSON model
 //!   of the command-line tool).
@@ -64,13 +70,16 @@ mod kernel;
 pub mod light;
 pub mod math;
 mod medium;
+pub mod pass;
 mod ray;
 pub mod reference;
+#[cfg(feature = "report")]
+pub mod report;
 mod scene;
 #[cfg(feature = "serde")]
 mod serde_rgb;
 
-pub use error::{BatchError, SceneError};
+pub use error::{BatchError, PassError, SceneError};
 pub use light::Phase;
 pub use medium::volume::{Profile, Shape, Volume, MAX_CUTS};
 pub use ray::{Outputs, Rays, RgbSlices};

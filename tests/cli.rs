@@ -525,3 +525,483 @@ fn late_error_leaves_no_output() {
         );
     }
 }
+
+// ---------------------------------------------------------------------------------------
+// NumPy .npy exchange. The test writes and reads .npy files with its own minimal code
+// (below), independent of the binary's parser.
+
+/// A .npy file: the magic, version `major`.0, the header `dict` (padded with spaces to a
+/// multiple of 64 and ended with `\n`, as numpy writes it), then `data`.
+fn npy_bytes(major: u8, dict: &str, data: &[u8]) -> Vec<u8> {
+    let prelude = if major == 1 { 10 } else { 12 };
+    let mut header = dict.as_bytes().to_vec();
+    while (prelude + header.len() + 1) % 64 != 0 {
+        header.push(b' ');
+    }
+    header.push(b'\n');
+    let mut v = b"\x93NUMPY".to_vec();
+    v.extend_from_slice(&[major, 0]);
+    if major == 1 {
+        v.extend_from_slice(&u16::try_from(header.len()).unwrap().to_le_bytes());
+    } else {
+        v.extend_from_slice(&u32::try_from(header.len()).unwrap().to_le_bytes());
+    }
+    v.extend_from_slice(&header);
+    v.extend_from_slice(data);
+    v
+}
+
+fn f32_bytes(values: impl IntoIterator<Item = f32>) -> Vec<u8> {
+    values.into_iter().flat_map(f32::to_le_bytes).collect()
+}
+
+/// The standard header numpy writes for an N×C float32 array.
+fn npy_dict(rows: usize, cols: usize) -> String {
+    format!("{{'descr': '<f4', 'fortran_order': False, 'shape': ({rows}, {cols}), }}")
+}
+
+/// A rays .npy (version 1.0) holding `rays`.
+fn rays_npy(rays: &[[f32; 7]]) -> Vec<u8> {
+    npy_bytes(
+        1,
+        &npy_dict(rays.len(), 7),
+        &f32_bytes(rays.iter().flatten().copied()),
+    )
+}
+
+/// Reads an N×9 float32 output .npy: checks the magic, version 1.0, the header's layout
+/// (a multiple of 64 bytes, ended with `\n`) and its fields; returns the rows.
+fn read_out_npy(bytes: &[u8]) -> Vec<[f32; 9]> {
+    assert_eq!(&bytes[..8], b"\x93NUMPY\x01\x00");
+    let hlen = usize::from(u16::from_le_bytes([bytes[8], bytes[9]]));
+    let start = 10 + hlen;
+    assert_eq!(start % 64, 0, "header length {hlen}");
+    let header = std::str::from_utf8(&bytes[10..start]).unwrap();
+    assert!(header.ends_with('\n'), "{header:?}");
+    assert!(header.contains("'descr': '<f4'"), "{header:?}");
+    assert!(header.contains("'fortran_order': False"), "{header:?}");
+    let shape = header
+        .split("'shape': (")
+        .nth(1)
+        .and_then(|s| s.split(')').next())
+        .unwrap_or_else(|| panic!("no shape in {header:?}"));
+    let dims: Vec<usize> = shape
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(|s| s.parse().unwrap())
+        .collect();
+    assert_eq!(dims.len(), 2, "{header:?}");
+    assert_eq!(dims[1], 9, "{header:?}");
+    let data = &bytes[start..];
+    assert_eq!(data.len(), dims[0] * 36, "{header:?}: data length");
+    data.chunks_exact(36)
+        .map(|row| {
+            let mut v = [0.0f32; 9];
+            for (k, x) in v.iter_mut().enumerate() {
+                *x = f32::from_le_bytes(row[4 * k..4 * k + 4].try_into().unwrap());
+            }
+            v
+        })
+        .collect()
+}
+
+/// The rows of an output CSV, each value read back as f32.
+fn read_out_csv(text: &str) -> Vec<[f32; 9]> {
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some(OUT_HEADER));
+    lines
+        .map(|l| {
+            let v: Vec<f32> = l.split(',').map(|f| f.parse().unwrap()).collect();
+            v.try_into().unwrap()
+        })
+        .collect()
+}
+
+fn bits(rows: &[[f32; 9]]) -> Vec<[u32; 9]> {
+    rows.iter().map(|r| r.map(f32::to_bits)).collect()
+}
+
+/// csv→csv, csv→npy, npy→npy and npy→csv on the shipped rays give the same values bit
+/// for bit, for several chunk sizes; the .npy output's header (its row count patched in
+/// at the end for CSV input) reads back with the test's own parser.
+#[test]
+fn npy_round_trips() {
+    let dir = workdir("npy-round-trips");
+    let scene = format!("{DATA}/valley.json");
+    let rays_csv = format!("{DATA}/rays.csv");
+    let rays = parse_rays(&std::fs::read_to_string(&rays_csv).unwrap());
+    std::fs::write(dir.join("rays.npy"), rays_npy(&rays)).unwrap();
+
+    let o = eval(&dir, &scene, &rays_csv, "cc.csv", &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let want_csv = std::fs::read_to_string(dir.join("cc.csv")).unwrap();
+    let want = bits(&read_out_csv(&want_csv));
+    assert_eq!(want.len(), rays.len());
+
+    for chunk in ["1048576", "7", "313", "1"] {
+        let extra = ["--chunk-rays", chunk, "--quiet"];
+        for (rays_file, out) in [
+            (rays_csv.as_str(), "cn.npy"),
+            ("rays.npy", "nn.npy"),
+            ("rays.npy", "nc.csv"),
+            ("rays.npy", "NN.NPY"),
+        ] {
+            let o = eval(&dir, &scene, rays_file, out, &extra);
+            assert!(o.status.success(), "{rays_file} -> {out}: {}", stderr(&o));
+            assert!(o.stderr.is_empty(), "{}", stderr(&o));
+            let bytes = std::fs::read(dir.join(out)).unwrap();
+            if out.ends_with(".csv") {
+                // The same text as csv -> csv.
+                assert_eq!(String::from_utf8(bytes).unwrap(), want_csv, "{out}");
+            } else {
+                assert_eq!(bits(&read_out_npy(&bytes)), want, "{rays_file} -> {out}");
+            }
+        }
+        // Whatever the input and chunk size, the same .npy bytes.
+        let a = std::fs::read(dir.join("cn.npy")).unwrap();
+        assert_eq!(a, std::fs::read(dir.join("nn.npy")).unwrap());
+        assert_eq!(a, std::fs::read(dir.join("NN.NPY")).unwrap());
+    }
+
+    // The summary line names the ray count, as for CSV.
+    let o = eval(&dir, &scene, "rays.npy", "nn.npy", &[]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains(&format!("{} rays", rays.len())), "{err}");
+    // --progress reports after every chunk (here not a terminal: one line each).
+    let o = eval(
+        &dir,
+        &scene,
+        "rays.npy",
+        "nn.npy",
+        &["--progress", "--chunk-rays", "100", "-q"],
+    );
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert_eq!(err.lines().count(), 4, "{err}");
+    assert!(err.contains("313 / 313 rays (100.0%)"), "{err}");
+
+    let mut files = files_in(&dir);
+    files.retain(|f| f.starts_with('.'));
+    assert!(files.is_empty(), "temporary files left: {files:?}");
+}
+
+/// Header variants numpy (or other writers) produce: versions 2.0 and 3.0, other key
+/// order and quotes, no padding, `5L`, `'=f4'`, an empty array.
+#[test]
+fn npy_header_variants() {
+    let dir = workdir("npy-variants");
+    std::fs::write(dir.join("s.json"), GOOD_SCENE).unwrap();
+    let rays: Vec<[f32; 7]> = (0..5)
+        .map(|i| {
+            [
+                0.0,
+                2.0,
+                i as f32,
+                0.0,
+                0.1 * i as f32 - 0.2,
+                1.0,
+                10.0 + i as f32,
+            ]
+        })
+        .collect();
+    let data = f32_bytes(rays.iter().flatten().copied());
+    std::fs::write(dir.join("r.npy"), rays_npy(&rays)).unwrap();
+    let o = eval(&dir, "s.json", "r.npy", "want.npy", &["-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let want = std::fs::read(dir.join("want.npy")).unwrap();
+    assert_eq!(read_out_npy(&want).len(), 5);
+
+    let variants: Vec<(&str, Vec<u8>)> = vec![
+        ("v2", npy_bytes(2, &npy_dict(5, 7), &data)),
+        ("v3", npy_bytes(3, &npy_dict(5, 7), &data)),
+        (
+            "order-quotes",
+            npy_bytes(
+                1,
+                "{\"shape\":(5,7),\"fortran_order\":False,\"descr\":\"<f4\"}",
+                &data,
+            ),
+        ),
+        (
+            "long-int-native",
+            npy_bytes(
+                1,
+                "{'descr': '=f4', 'fortran_order': False, 'shape': (5L, 7L)}",
+                &data,
+            ),
+        ),
+        ("unpadded", {
+            let dict = npy_dict(5, 7);
+            let mut v = b"\x93NUMPY\x01\x00".to_vec();
+            v.extend_from_slice(&(dict.len() as u16).to_le_bytes());
+            v.extend_from_slice(dict.as_bytes());
+            v.extend_from_slice(&data);
+            v
+        }),
+    ];
+    for (name, bytes) in variants {
+        let file = format!("{name}.npy");
+        std::fs::write(dir.join(&file), bytes).unwrap();
+        let o = eval(&dir, "s.json", &file, "o.npy", &["-q"]);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        assert_eq!(std::fs::read(dir.join("o.npy")).unwrap(), want, "{name}");
+    }
+
+    // No rays: an empty array in, (0, 9) out; and from a header-only CSV.
+    std::fs::write(dir.join("e.npy"), npy_bytes(1, &npy_dict(0, 7), &[])).unwrap();
+    std::fs::write(dir.join("e.csv"), "ox,oy,oz,dx,dy,dz,t\n").unwrap();
+    for input in ["e.npy", "e.csv"] {
+        let o = eval(&dir, "s.json", input, "o.npy", &["-q"]);
+        assert!(o.status.success(), "{input}: {}", stderr(&o));
+        assert!(read_out_npy(&std::fs::read(dir.join("o.npy")).unwrap()).is_empty());
+    }
+    let o = eval(&dir, "s.json", "e.npy", "o.csv", &["-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read_to_string(dir.join("o.csv")).unwrap(),
+        format!("{OUT_HEADER}\n")
+    );
+}
+
+/// Runs `eval` on a rays.npy holding `bytes` and checks the error contract (as
+/// [`expect_error`]), for both a CSV and a .npy output.
+fn expect_npy_error(name: &str, bytes: &[u8], extra: &[&str], want: &[&str]) {
+    for out in ["out.csv", "out.npy"] {
+        let dir = workdir(&format!("npy-err-{name}-{out}"));
+        std::fs::write(dir.join("scene.json"), GOOD_SCENE).unwrap();
+        std::fs::write(dir.join("rays.npy"), bytes).unwrap();
+        let o = eval(&dir, "scene.json", "rays.npy", out, extra);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{name}: {err}");
+        assert!(o.stdout.is_empty(), "{name}");
+        assert!(
+            err.starts_with("error: rays.npy: "),
+            "{name}: does not name the file: {err}"
+        );
+        assert!(
+            err.ends_with('\n') && err.lines().count() == 1,
+            "{name}: not one line: {err:?}"
+        );
+        for w in want {
+            assert!(err.contains(w), "{name}: {err:?} lacks {w:?}");
+        }
+        assert_eq!(
+            files_in(&dir),
+            ["rays.npy", "scene.json"],
+            "{name}: output left behind"
+        );
+    }
+}
+
+#[test]
+fn bad_npy() {
+    let ray = [0.0f32, 2.0, 0.0, 0.0, 0.1, 1.0, 100.0];
+    let good = f32_bytes([ray; 5].into_iter().flatten());
+    let with = |row: usize, col: usize, x: f32| {
+        let mut rays = [ray; 5];
+        rays[row][col] = x;
+        rays_npy(&rays)
+    };
+    let dict = |descr: &str, fortran: &str, shape: &str| {
+        format!("{{'descr': {descr}, 'fortran_order': {fortran}, 'shape': {shape}, }}")
+    };
+    let header_only = npy_bytes(1, &npy_dict(5, 7), &[]);
+    let cases: Vec<(&str, Vec<u8>, Vec<&str>)> = vec![
+        (
+            "f8",
+            npy_bytes(1, &dict("'<f8'", "False", "(5, 7)"), &[0; 280]),
+            vec!["field descr", "'<f8'", "float64", "not supported", "'<f4'"],
+        ),
+        (
+            "big-endian",
+            npy_bytes(1, &dict("'>f4'", "False", "(5, 7)"), &good),
+            vec!["field descr", "'>f4'", "big-endian float32"],
+        ),
+        (
+            "int",
+            npy_bytes(1, &dict("'<i4'", "False", "(5, 7)"), &good),
+            vec!["field descr", "'<i4'", "int32"],
+        ),
+        (
+            "structured",
+            npy_bytes(1, &dict("[('ox', '<f4')]", "False", "(35,)"), &good),
+            vec!["field descr", "structured dtype"],
+        ),
+        (
+            "fortran",
+            npy_bytes(1, &dict("'<f4'", "True", "(5, 7)"), &good),
+            vec!["field fortran_order", "True", "C order"],
+        ),
+        (
+            "one-dimension",
+            npy_bytes(1, &dict("'<f4'", "False", "(35,)"), &good),
+            vec!["field shape", "(35,)", "1 dimension", "(N, 7)"],
+        ),
+        (
+            "three-dimensions",
+            npy_bytes(1, &dict("'<f4'", "False", "(5, 7, 1)"), &good),
+            vec!["field shape", "(5, 7, 1)", "3 dimensions"],
+        ),
+        (
+            "columns",
+            npy_bytes(1, &dict("'<f4'", "False", "(7, 5)"), &good),
+            vec!["field shape", "(7, 5)", "5 columns", "ox,oy,oz,dx,dy,dz,t"],
+        ),
+        (
+            "truncated-mid-row",
+            good_npy_cut(&rays_npy(&[ray; 5]), 30),
+            vec![
+                "truncated data",
+                "promises 5 rows",
+                "ends at row 3",
+                "110 of 140 bytes",
+            ],
+        ),
+        (
+            "truncated-at-row",
+            good_npy_cut(&rays_npy(&[ray; 5]), 56),
+            vec![
+                "truncated data",
+                "promises 5 rows",
+                "ends at row 3 (3 complete rows",
+            ],
+        ),
+        (
+            "no-data",
+            header_only,
+            vec!["truncated data", "promises 5 rows", "ends at row 0"],
+        ),
+        (
+            "extra-bytes",
+            npy_bytes(1, &npy_dict(5, 7), &[good.as_slice(), &[0; 3]].concat()),
+            vec!["3 bytes of extra data after the 5 rows"],
+        ),
+        (
+            "bad-magic",
+            b"ox,oy,oz,dx,dy,dz,t\n0,2,0,0,1,0,1\n".to_vec(),
+            vec!["not a .npy file", "bad magic"],
+        ),
+        ("empty", Vec::new(), vec!["not a .npy file", "empty"]),
+        (
+            "short",
+            b"\x93NUM".to_vec(),
+            vec!["not a .npy file", "ends after 4 bytes"],
+        ),
+        (
+            "version",
+            {
+                let mut v = rays_npy(&[ray; 5]);
+                v[6] = 4;
+                v
+            },
+            vec!["unsupported .npy format version 4.0"],
+        ),
+        (
+            "header-syntax",
+            npy_bytes(
+                1,
+                "{'descr': '<f4', 'fortran_order': False, 'shape': (5, 7}",
+                &good,
+            ),
+            vec!["bad header", "expected ',' or ')'", "'shape': (5, 7}"],
+        ),
+        (
+            "header-missing-key",
+            npy_bytes(1, "{'descr': '<f4', 'shape': (5, 7)}", &good),
+            vec!["bad header", "'fortran_order' missing"],
+        ),
+        (
+            "header-unknown-key",
+            npy_bytes(
+                1,
+                "{'descr': '<f4', 'fortran_order': False, 'shape': (5, 7), 'x': 1}",
+                &good,
+            ),
+            vec!["bad header", "unexpected key 'x'"],
+        ),
+        (
+            "header-not-dict",
+            npy_bytes(1, "(5, 7)", &good),
+            vec!["bad header", "expected a dict"],
+        ),
+        (
+            "header-length",
+            {
+                let mut v = b"\x93NUMPY\x01\x00".to_vec();
+                v.extend_from_slice(&1000u16.to_le_bytes());
+                v.extend_from_slice(npy_dict(5, 7).as_bytes());
+                v
+            },
+            vec!["truncated header", "1000 bytes promised"],
+        ),
+        (
+            "nan-origin",
+            with(2, 1, f32::NAN),
+            vec!["rays.npy: row 2: field oy: must be finite, got NaN"],
+        ),
+        (
+            "inf-direction",
+            with(4, 3, f32::INFINITY),
+            vec!["rays.npy: row 4: field dx: must be finite, got inf"],
+        ),
+        (
+            "negative-t",
+            with(3, 6, -1.0),
+            vec!["rays.npy: row 3: field t: must be >= 0 (or inf), got -1"],
+        ),
+        (
+            "nan-t",
+            with(0, 6, f32::NAN),
+            vec!["rays.npy: row 0: field t: must be >= 0"],
+        ),
+        (
+            "minus-inf-t",
+            with(1, 6, f32::NEG_INFINITY),
+            vec!["rays.npy: row 1: field t: must be >= 0", "-inf"],
+        ),
+    ];
+    for (name, bytes, want) in &cases {
+        expect_npy_error(name, bytes, &[], want);
+    }
+
+    // As for CSV: t = +inf and -0 are accepted, and so is a zero direction.
+    let dir = workdir("npy-accepted");
+    std::fs::write(dir.join("s.json"), GOOD_SCENE).unwrap();
+    let rays = [
+        [0.0, 2.0, 0.0, 0.0, 1.0, 0.0, f32::INFINITY],
+        [0.0, 2.0, 0.0, 0.0, 1.0, 0.0, -0.0],
+        [0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 5.0],
+    ];
+    std::fs::write(dir.join("r.npy"), rays_npy(&rays)).unwrap();
+    let o = eval(&dir, "s.json", "r.npy", "o.npy", &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        read_out_npy(&std::fs::read(dir.join("o.npy")).unwrap()).len(),
+        3
+    );
+}
+
+fn good_npy_cut(bytes: &[u8], cut: usize) -> Vec<u8> {
+    bytes[..bytes.len() - cut].to_vec()
+}
+
+/// A bad row in a late chunk of a .npy file: reported by its row index (counting from 0),
+/// the earliest bad row wins, and no output is left behind.
+#[test]
+fn npy_late_error_leaves_no_output() {
+    let mut rays = vec![[0.0f32, 2.0, 0.0, 0.0, -0.5, 1.0, f32::INFINITY]; 50_000];
+    rays[40_000][5] = f32::NAN;
+    rays[45_000][6] = -3.0;
+    let bytes = rays_npy(&rays);
+    for chunk in ["1000", "1048576"] {
+        expect_npy_error(
+            &format!("late-{chunk}"),
+            &bytes,
+            &["--chunk-rays", chunk],
+            &["rays.npy: row 40000: field dz: must be finite, got NaN"],
+        );
+    }
+}

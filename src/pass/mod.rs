@@ -1,0 +1,431 @@
+//! The framebuffer fog pass: what a CPU software renderer calls once per frame.
+//!
+//! [`Scene::fog_pass`] takes a [`Camera`], the frame's depth buffer ([`Depth`]) and its
+//! linear-light colour buffer ([`ColourBuffer`]) and fogs the colour in place:
+//! `L = L_surface · T + L_in` per channel, with T and L_in the fog of the pixel's ray from
+//! the camera to the surface (t = +∞ for sky pixels). Rays are generated 8 pixels at a
+//! time in registers (no per-pixel ray buffer), bands of rows run in parallel with rayon
+//! ([`Scene::fog_pass_single`]: on the calling thread), and everything that does not
+//! change per pixel (the NDC mapping, the camera's ray field, the depth conversion
+//! constants; the scene's phase and colour constants live in the compiled [`Scene`]) is
+//! computed once per frame. The height-dependent terms of the camera (its density) are
+//! computed per ray by the same kernel as the batch API.
+//!
+//! A pixel's result is bit-identical to the batch API's for the ray
+//! [`Camera::pixel_ray`] returns: the pass generates the same f32 ray with the same
+//! operations, evaluates it with the same kernel instantiation (rays not marked unit),
+//! pads the tail of a row into one 8-lane packet as the batch loop does, and composites
+//! with one fused multiply-add per channel, `L_surface.mul_add(T, L_in)` through
+//! [`Lane::mul_add`] (fused where the target has FMA).
+//!
+//! Buffers are row-major with row 0 at the top: pixel (x, y) is element `y·width + x` of
+//! the depth buffer and of each planar channel, elements `3·(y·width + x) + c` of an RGB
+//! buffer and `4·(y·width + x) + c` of an RGBA one (alpha, c = 3, is left untouched).
+//! Pixel rays go through pixel centres; see [`Camera`] for the NDC convention.
+
+mod camera;
+
+pub use crate::error::PassError;
+pub use camera::{Camera, DepthConvention, PixelRay, Projection};
+
+use crate::kernel::{run_packets, PacketIn, PacketIo, PacketOut};
+use crate::math::Lane;
+use crate::scene::Scene;
+use camera::{FramePlan, RowPlan};
+use rayon::prelude::*;
+use wide::f32x8;
+
+/// A depth buffer (`width × height` values, row-major, row 0 at the top) and how to read
+/// it.
+#[derive(Clone, Copy, Debug)]
+pub struct Depth<'a> {
+    /// One value per pixel.
+    pub values: &'a [f32],
+    /// What the values mean.
+    pub convention: DepthConvention,
+}
+
+impl<'a> Depth<'a> {
+    /// Linear view depth ([`DepthConvention::LinearView`]).
+    pub fn linear_view(values: &'a [f32]) -> Self {
+        Depth {
+            values,
+            convention: DepthConvention::LinearView,
+        }
+    }
+
+    /// Distance along the ray ([`DepthConvention::Distance`]).
+    pub fn distance(values: &'a [f32]) -> Self {
+        Depth {
+            values,
+            convention: DepthConvention::Distance,
+        }
+    }
+
+    /// A rasterizer's [0, 1] depth, 0 at `near` ([`DepthConvention::NdcZeroToOne`]).
+    pub fn ndc(values: &'a [f32], near: f32, far: f32) -> Self {
+        Depth {
+            values,
+            convention: DepthConvention::NdcZeroToOne {
+                near,
+                far,
+                reversed: false,
+            },
+        }
+    }
+
+    /// A rasterizer's reversed-Z [0, 1] depth, 1 at `near`, 0 at `far` (which may be
+    /// `+inf`) ([`DepthConvention::NdcZeroToOne`]).
+    pub fn ndc_reversed(values: &'a [f32], near: f32, far: f32) -> Self {
+        Depth {
+            values,
+            convention: DepthConvention::NdcZeroToOne {
+                near,
+                far,
+                reversed: true,
+            },
+        }
+    }
+}
+
+/// A linear-light f32 colour buffer, fogged in place (row-major, row 0 at the top).
+#[derive(Debug)]
+pub enum ColourBuffer<'a> {
+    /// Interleaved RGB: `3 · width · height` values.
+    Rgb(&'a mut [f32]),
+    /// Interleaved RGBA: `4 · width · height` values; alpha is not touched.
+    Rgba(&'a mut [f32]),
+    /// One plane per channel (R, G, B), `width · height` values each.
+    Planar([&'a mut [f32]; 3]),
+}
+
+/// A band of a planar frame: its index, the three planes' rows and the depth rows.
+type PlanarBand<'a> = (
+    usize,
+    (((&'a mut [f32], &'a mut [f32]), &'a mut [f32]), &'a [f32]),
+);
+
+/// Pixels per parallel task (whole rows, at least one): about 100 KB of colour and depth.
+const BAND_PIXELS: usize = 4096;
+
+impl Scene {
+    /// Fogs a frame in place: every pixel's colour L becomes `L · T + L_in`, with T and
+    /// L_in the fog along the pixel's ray ([`Camera::pixel_ray`]) from the camera to the
+    /// depth buffer's surface (t = +∞ for sky pixels). Bands of rows run in parallel with
+    /// rayon; [`Scene::fog_pass_single`] does the same on the calling thread. A pixel's
+    /// result is bit-identical to [`Scene::eval_ray`] for the same ray followed by
+    /// `L.mul_add(T, L_in)` (see the [module](crate::pass) documentation).
+    ///
+    /// Errors (nothing is written) if a buffer's length does not fit `width × height`
+    /// (naming the buffer), or for an unusable depth convention (e.g. a perspective
+    /// `near ≤ 0`).
+    ///
+    /// ```
+    /// use analytic_fog::pass::{Camera, ColourBuffer, Depth};
+    /// use analytic_fog::{Component, HeightFogLayer, Lighting, Phase, Scene, SceneDesc, Sun};
+    /// use glam::Vec3;
+    ///
+    /// let scene = Scene::new(SceneDesc {
+    ///     height_fog: vec![HeightFogLayer {
+    ///         base_height: 0.0,
+    ///         falloff: 0.1,
+    ///         components: vec![Component {
+    ///             scattering: Vec3::new(0.02, 0.03, 0.05),
+    ///             absorption: Vec3::ZERO,
+    ///             phase: Phase::HenyeyGreenstein(0.6),
+    ///         }],
+    ///     }],
+    ///     lighting: Lighting {
+    ///         ambient: Vec3::new(0.5, 0.6, 0.7),
+    ///         sun: Some(Sun { direction: Vec3::new(0.3, 0.4, -0.87), radiance: Vec3::splat(20.0) }),
+    ///     },
+    ///     ..SceneDesc::default()
+    /// })?;
+    /// let (w, h) = (64, 36);
+    /// let camera = Camera::perspective(Vec3::new(0.0, 2.0, 0.0), Vec3::NEG_Z, Vec3::Y, 1.0, w as f32 / h as f32)?;
+    ///
+    /// // A reversed-Z depth buffer (0 = sky) and an RGBA frame.
+    /// let depth: Vec<f32> = (0..w * h).map(|i| if i < w * h / 2 { 0.0 } else { 0.01 }).collect();
+    /// let mut rgba = vec![1.0f32; 4 * w * h];
+    /// scene.fog_pass(&camera, w, h, Depth::ndc_reversed(&depth, 0.1, f32::INFINITY), ColourBuffer::Rgba(&mut rgba))?;
+    /// assert!(rgba[0] != 1.0 && rgba[3] == 1.0); // fogged; alpha untouched
+    ///
+    /// // The same pixel through the batch API:
+    /// let r = camera.pixel_ray(0, 0, w, h, depth[0], Depth::ndc_reversed(&depth, 0.1, f32::INFINITY).convention)?;
+    /// let f = scene.eval_ray(r.origin, r.direction, r.t);
+    /// use analytic_fog::math::Lane;
+    /// assert_eq!(rgba[0], Lane::mul_add(1.0f32, f.transmittance.x, f.inscattering.x));
+    ///
+    /// // Wrong lengths name the buffer.
+    /// let err = scene.fog_pass(&camera, w, h, Depth::linear_view(&depth[1..]), ColourBuffer::Rgba(&mut rgba));
+    /// assert_eq!(err.unwrap_err().to_string(), "depth: has 2303 elements, a 64x36 frame needs 2304");
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn fog_pass(
+        &self,
+        camera: &Camera,
+        width: usize,
+        height: usize,
+        depth: Depth<'_>,
+        colour: ColourBuffer<'_>,
+    ) -> Result<(), PassError> {
+        fog_pass(self, camera, width, height, depth, colour, true)
+    }
+
+    /// [`Scene::fog_pass`] on the calling thread (no rayon). Same results, bit for bit.
+    pub fn fog_pass_single(
+        &self,
+        camera: &Camera,
+        width: usize,
+        height: usize,
+        depth: Depth<'_>,
+        colour: ColourBuffer<'_>,
+    ) -> Result<(), PassError> {
+        fog_pass(self, camera, width, height, depth, colour, false)
+    }
+}
+
+fn check_len(
+    buffer: &'static str,
+    found: usize,
+    channels: usize,
+    width: usize,
+    height: usize,
+) -> Result<(), PassError> {
+    let expected = width
+        .checked_mul(height)
+        .and_then(|n| n.checked_mul(channels))
+        .ok_or(PassError::FrameTooLarge { width, height })?;
+    if found == expected {
+        Ok(())
+    } else {
+        Err(PassError::BufferLength {
+            buffer,
+            expected,
+            found,
+            width,
+            height,
+        })
+    }
+}
+
+fn fog_pass(
+    scene: &Scene,
+    camera: &Camera,
+    width: usize,
+    height: usize,
+    depth: Depth<'_>,
+    colour: ColourBuffer<'_>,
+    par: bool,
+) -> Result<(), PassError> {
+    check_len("depth", depth.values.len(), 1, width, height)?;
+    match &colour {
+        ColourBuffer::Rgb(c) => check_len("colour", c.len(), 3, width, height)?,
+        ColourBuffer::Rgba(c) => check_len("colour", c.len(), 4, width, height)?,
+        ColourBuffer::Planar([r, g, b]) => {
+            check_len("colour.r", r.len(), 1, width, height)?;
+            check_len("colour.g", g.len(), 1, width, height)?;
+            check_len("colour.b", b.len(), 1, width, height)?;
+        }
+    }
+    let plan = FramePlan::new(camera, width, height, depth.convention)?;
+    if width == 0 || height == 0 {
+        return Ok(());
+    }
+    let band = (BAND_PIXELS / width).max(1);
+    let d = depth.values;
+    match colour {
+        ColourBuffer::Rgb(c) => interleaved::<3>(scene, &plan, width, band, d, c, par),
+        ColourBuffer::Rgba(c) => interleaved::<4>(scene, &plan, width, band, d, c, par),
+        ColourBuffer::Planar([r, g, b]) => {
+            let f = |(bi, (((r, g), b), d)): PlanarBand<'_>| {
+                for (k, dr) in d.chunks_exact(width).enumerate() {
+                    let s = k * width..(k + 1) * width;
+                    let row = Planar([&mut r[s.clone()], &mut g[s.clone()], &mut b[s]]);
+                    fog_row(scene, &plan, bi * band + k, dr, row);
+                }
+            };
+            let n = width * band;
+            if par {
+                r.par_chunks_mut(n)
+                    .zip(g.par_chunks_mut(n))
+                    .zip(b.par_chunks_mut(n))
+                    .zip(d.par_chunks(n))
+                    .enumerate()
+                    .for_each(f);
+            } else {
+                r.chunks_mut(n)
+                    .zip(g.chunks_mut(n))
+                    .zip(b.chunks_mut(n))
+                    .zip(d.chunks(n))
+                    .enumerate()
+                    .for_each(f);
+            }
+        }
+    }
+    Ok(())
+}
+
+fn interleaved<const C: usize>(
+    scene: &Scene,
+    plan: &FramePlan,
+    width: usize,
+    band: usize,
+    depth: &[f32],
+    colour: &mut [f32],
+    par: bool,
+) {
+    let f = |(bi, (c, d)): (usize, (&mut [f32], &[f32]))| {
+        for (k, (cr, dr)) in c
+            .chunks_exact_mut(C * width)
+            .zip(d.chunks_exact(width))
+            .enumerate()
+        {
+            fog_row(scene, plan, bi * band + k, dr, Interleaved::<C>(cr));
+        }
+    };
+    if par {
+        colour
+            .par_chunks_mut(C * width * band)
+            .zip(depth.par_chunks(width * band))
+            .enumerate()
+            .for_each(f);
+    } else {
+        colour
+            .chunks_mut(C * width * band)
+            .zip(depth.chunks(width * band))
+            .enumerate()
+            .for_each(f);
+    }
+}
+
+/// One row of a colour buffer: loads and stores up to 8 pixels as three channel lanes.
+trait RowColour {
+    fn load(&self, x0: usize, n: usize) -> [f32x8; 3];
+    fn store(&mut self, x0: usize, n: usize, v: [f32x8; 3]);
+}
+
+/// A row of an interleaved buffer with `C` floats per pixel (RGB first).
+struct Interleaved<'a, const C: usize>(&'a mut [f32]);
+
+impl<const C: usize> RowColour for Interleaved<'_, C> {
+    #[inline(always)]
+    fn load(&self, x0: usize, n: usize) -> [f32x8; 3] {
+        let mut v = [[0.0f32; 8]; 3];
+        if n == 8 {
+            let s = &self.0[x0 * C..(x0 + 8) * C];
+            for k in 0..8 {
+                for ch in 0..3 {
+                    v[ch][k] = s[k * C + ch];
+                }
+            }
+        } else {
+            let s = &self.0[x0 * C..(x0 + n) * C];
+            for k in 0..n {
+                for ch in 0..3 {
+                    v[ch][k] = s[k * C + ch];
+                }
+            }
+        }
+        v.map(f32x8::new)
+    }
+    #[inline(always)]
+    fn store(&mut self, x0: usize, n: usize, v: [f32x8; 3]) {
+        let v = v.map(|x| x.to_array());
+        if n == 8 {
+            let s = &mut self.0[x0 * C..(x0 + 8) * C];
+            for k in 0..8 {
+                for ch in 0..3 {
+                    s[k * C + ch] = v[ch][k];
+                }
+            }
+        } else {
+            let s = &mut self.0[x0 * C..(x0 + n) * C];
+            for k in 0..n {
+                for ch in 0..3 {
+                    s[k * C + ch] = v[ch][k];
+                }
+            }
+        }
+    }
+}
+
+/// A row of a planar buffer.
+struct Planar<'a>([&'a mut [f32]; 3]);
+
+impl RowColour for Planar<'_> {
+    #[inline(always)]
+    fn load(&self, x0: usize, n: usize) -> [f32x8; 3] {
+        [0, 1, 2].map(|ch| {
+            if n == 8 {
+                f32x8::load(&self.0[ch][x0..x0 + 8])
+            } else {
+                let mut b = [0.0f32; 8];
+                b[..n].copy_from_slice(&self.0[ch][x0..x0 + n]);
+                f32x8::new(b)
+            }
+        })
+    }
+    #[inline(always)]
+    fn store(&mut self, x0: usize, n: usize, v: [f32x8; 3]) {
+        for ch in 0..3 {
+            if n == 8 {
+                v[ch].store(&mut self.0[ch][x0..x0 + 8]);
+            } else {
+                self.0[ch][x0..x0 + n].copy_from_slice(&v[ch].to_array()[..n]);
+            }
+        }
+    }
+}
+
+/// Column offsets of the 8 lanes of a packet.
+const LANE_X: [f32; 8] = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0];
+
+/// One row of the pass, as the kernel's ray source and result sink.
+struct RowIo<'a, R> {
+    plan: &'a FramePlan,
+    row: RowPlan,
+    depth: &'a [f32],
+    out: R,
+}
+
+impl<R: RowColour> PacketIo for RowIo<'_, R> {
+    #[inline(always)]
+    fn make(&mut self, i: usize) -> PacketIn<f32x8> {
+        let x0 = i * 8;
+        let width = self.depth.len();
+        let dv = if x0 + 8 <= width {
+            f32x8::load(&self.depth[x0..x0 + 8])
+        } else {
+            let mut b = [0.0f32; 8];
+            b[..width - x0].copy_from_slice(&self.depth[x0..]);
+            f32x8::new(b)
+        };
+        // x0 + k is exact in f32 (width ≤ 2^24): the value pixel_ray uses.
+        let xs = f32x8::splat(x0 as f32) + f32x8::new(LANE_X);
+        let (o, d, t) = self.plan.ray(&self.row, xs, dv);
+        PacketIn { o, d, t }
+    }
+
+    #[inline(always)]
+    fn take(&mut self, i: usize, r: &PacketOut<f32x8>) {
+        let x0 = i * 8;
+        let n = (self.depth.len() - x0).min(8);
+        let c = self.out.load(x0, n);
+        let v = [0, 1, 2].map(|ch| Lane::mul_add(c[ch], r.trans[ch], r.insc[ch]));
+        self.out.store(x0, n, v);
+    }
+}
+
+/// Fogs one row: rays generated 8 pixels at a time, the tail (width % 8) padded into one
+/// more 8-lane packet (depth 0 in the dead lanes, whose results are dropped).
+#[inline(never)]
+fn fog_row<R: RowColour>(scene: &Scene, plan: &FramePlan, y: usize, depth: &[f32], out: R) {
+    let mut io = RowIo {
+        plan,
+        row: plan.row(y),
+        depth,
+        out,
+    };
+    run_packets::<false, _>(scene, depth.len().div_ceil(8), &mut io);
+}

@@ -1,0 +1,767 @@
+//! The framebuffer fog pass (`analytic_fog::pass`): every pixel equals the batch API's
+//! result for the ray `Camera::pixel_ray` returns (bit for bit, including the final
+//! multiply-add), on random cameras, depths (sky included), every depth convention, every
+//! colour layout and frame sizes with row tails; `pixel_ray` against an independent f64
+//! unprojection; errors naming the buffer.
+
+use analytic_fog::math::Lane;
+use analytic_fog::pass::{Camera, ColourBuffer, Depth, DepthConvention, PixelRay, Projection};
+use analytic_fog::{
+    Component, HeightFogLayer, Lighting, Outputs, PassError, Phase, Rays, Scene, SceneDesc, Sun,
+};
+use glam::{DMat4, DVec3, Mat4, Vec3};
+
+/// xorshift64*, deterministic.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
+    }
+    /// Uniform in [0, 1).
+    fn f(&mut self) -> f32 {
+        (self.next() >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.f()
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+    fn unit(&mut self) -> Vec3 {
+        loop {
+            let v = Vec3::new(
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+            );
+            if v.length() > 0.2 && v.length() < 1.0 {
+                return v.normalize();
+            }
+        }
+    }
+}
+
+fn component(rng: &mut Rng, phase: Phase) -> Component {
+    Component {
+        scattering: Vec3::new(
+            rng.range(0.0, 0.05),
+            rng.range(0.0, 0.05),
+            rng.range(0.0, 0.05),
+        ),
+        absorption: Vec3::splat(rng.range(0.0, 0.01)),
+        phase,
+    }
+}
+
+/// Scene kinds: 0 = one RGB layer with HG sun and ambient (the pass's fast path),
+/// 1 = two layers (general kernel), 2 = a tilted up vector, 3 = one layer, X up, Rayleigh.
+fn scene(rng: &mut Rng, kind: usize) -> Scene {
+    let layer = |rng: &mut Rng, phase| HeightFogLayer {
+        base_height: rng.range(-5.0, 5.0),
+        falloff: rng.range(0.01, 0.5),
+        components: vec![component(rng, phase)],
+    };
+    let g = rng.range(-0.9, 0.9);
+    let height_fog = match kind {
+        1 => vec![
+            layer(rng, Phase::HenyeyGreenstein(g)),
+            layer(rng, Phase::Isotropic),
+        ],
+        3 => vec![layer(rng, Phase::Rayleigh)],
+        _ => vec![layer(rng, Phase::HenyeyGreenstein(g))],
+    };
+    let up = match kind {
+        2 => Vec3::new(0.2, 1.0, -0.3),
+        3 => Vec3::X,
+        _ => Vec3::Y,
+    };
+    Scene::new(SceneDesc {
+        up,
+        height_fog,
+        lighting: Lighting {
+            ambient: Vec3::new(0.5, 0.6, 0.7),
+            sun: Some(Sun {
+                direction: rng.unit(),
+                radiance: Vec3::new(20.0, 18.0, 15.0),
+            }),
+        },
+        ..SceneDesc::default()
+    })
+    .unwrap()
+}
+
+fn camera(rng: &mut Rng, w: usize, h: usize) -> Camera {
+    let pos = Vec3::new(
+        rng.range(-50.0, 50.0),
+        rng.range(-5.0, 30.0),
+        rng.range(-50.0, 50.0),
+    );
+    let fwd = rng.unit();
+    let up = loop {
+        let u = rng.unit();
+        if u.cross(fwd).length() > 0.1 {
+            break u;
+        }
+    };
+    let aspect = w as f32 / h as f32;
+    match rng.below(4) {
+        0 => Camera::perspective(pos, fwd, up, rng.range(0.2, 2.8), aspect).unwrap(),
+        1 => Camera::orthographic(pos, fwd, up, rng.range(1.0, 100.0), aspect).unwrap(),
+        2 => {
+            let view = Mat4::look_at_rh(pos, pos + fwd, up);
+            let proj = if rng.below(2) == 0 {
+                Mat4::perspective_rh_gl(rng.range(0.3, 2.0), aspect, 0.1, 500.0)
+            } else {
+                Mat4::perspective_infinite_reverse_rh(rng.range(0.3, 2.0), aspect, 0.05)
+            };
+            let position = if rng.below(2) == 0 { Some(pos) } else { None };
+            Camera::from_inverse_view_projection((proj * view).inverse(), position).unwrap()
+        }
+        _ => {
+            let view = Mat4::look_at_rh(pos, pos + fwd, up);
+            let proj = Mat4::orthographic_rh(-7.0, 5.0, -3.0, 4.0, 0.5, 300.0);
+            Camera::from_inverse_view_projection((proj * view).inverse(), Some(pos)).unwrap()
+        }
+    }
+}
+
+fn convention(rng: &mut Rng, cam: &Camera) -> DepthConvention {
+    let persp = cam.projection() == Projection::Perspective;
+    match rng.below(4) {
+        0 => DepthConvention::LinearView,
+        1 => DepthConvention::Distance,
+        k => {
+            let near = if persp {
+                rng.range(0.01, 1.0)
+            } else {
+                rng.range(-5.0, 5.0)
+            };
+            let far = if persp && rng.below(3) == 0 {
+                f32::INFINITY
+            } else {
+                near + rng.range(10.0, 1000.0)
+            };
+            DepthConvention::NdcZeroToOne {
+                near,
+                far,
+                reversed: k == 3,
+            }
+        }
+    }
+}
+
+/// Random depth values for a convention, sky pixels included.
+fn depths(rng: &mut Rng, conv: DepthConvention, n: usize) -> Vec<f32> {
+    (0..n)
+        .map(|_| {
+            let r = rng.below(10);
+            match conv {
+                DepthConvention::LinearView | DepthConvention::Distance => match r {
+                    0 => f32::INFINITY,
+                    1 => 0.0,
+                    2 => -1.0,
+                    3 => rng.range(1e3, 1e6),
+                    _ => rng.range(0.0, 200.0),
+                },
+                DepthConvention::NdcZeroToOne { reversed, .. } => match r {
+                    0 => f32::from(u8::from(!reversed)), // the far plane: sky
+                    1 => f32::from(u8::from(reversed)),  // the near plane
+                    2 => f32::INFINITY,
+                    3 => 1.0 - rng.f() * 1e-3,
+                    4 => rng.f() * 1e-3,
+                    _ => rng.f(),
+                },
+            }
+        })
+        .collect()
+}
+
+/// Transmittance and in-scattering from the batch API for the rays of `pixel_ray`.
+fn batch_reference(
+    scene: &Scene,
+    cam: &Camera,
+    w: usize,
+    h: usize,
+    depth: &[f32],
+    conv: DepthConvention,
+) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
+    let n = w * h;
+    let mut c: [Vec<f32>; 7] = Default::default();
+    for y in 0..h {
+        for x in 0..w {
+            let r = cam.pixel_ray(x, y, w, h, depth[y * w + x], conv).unwrap();
+            for (k, v) in [
+                r.origin.x,
+                r.origin.y,
+                r.origin.z,
+                r.direction.x,
+                r.direction.y,
+                r.direction.z,
+                r.t,
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                c[k].push(v);
+            }
+        }
+    }
+    let rays = Rays::new(&c[0], &c[1], &c[2], &c[3], &c[4], &c[5], &c[6]).unwrap();
+    let (mut tr, mut tg, mut tb) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let (mut lr, mut lg, mut lb) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    scene
+        .evaluate(
+            &rays,
+            Outputs {
+                transmittance: Some([&mut tr, &mut tg, &mut tb]),
+                inscattering: Some([&mut lr, &mut lg, &mut lb]),
+                ..Outputs::default()
+            },
+        )
+        .unwrap();
+    let t = (0..n).map(|i| [tr[i], tg[i], tb[i]]).collect();
+    let l = (0..n).map(|i| [lr[i], lg[i], lb[i]]).collect();
+    (t, l)
+}
+
+const SIZES: [(usize, usize); 9] = [
+    (1, 1),
+    (7, 3),
+    (17, 5),
+    (33, 9),
+    (8, 2),
+    (16, 1),
+    (1, 13),
+    (9, 8),
+    (64, 4),
+];
+
+#[test]
+fn pass_equals_batch_api_bit_for_bit() {
+    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    let mut pixels = 0usize;
+    let mut sky = 0usize;
+    for case in 0..400 {
+        let (w, h) = SIZES[case % SIZES.len()];
+        let scene = scene(&mut rng, case % 4);
+        let cam = camera(&mut rng, w, h);
+        let conv = convention(&mut rng, &cam);
+        let depth = depths(&mut rng, conv, w * h);
+        let (tr, li) = batch_reference(&scene, &cam, w, h, &depth, conv);
+        let n = w * h;
+        let surface: Vec<[f32; 3]> = (0..n)
+            .map(|_| {
+                [
+                    rng.range(0.0, 4.0),
+                    rng.range(0.0, 4.0),
+                    rng.range(0.0, 4.0),
+                ]
+            })
+            .collect();
+        let alpha: Vec<f32> = (0..n).map(|_| rng.f()).collect();
+        let expect =
+            |i: usize, c: usize| -> f32 { Lane::mul_add(surface[i][c], tr[i][c], li[i][c]) };
+        let d = Depth {
+            values: &depth,
+            convention: conv,
+        };
+        for par in [false, true] {
+            let run = |colour: ColourBuffer<'_>| {
+                if par {
+                    scene.fog_pass(&cam, w, h, d, colour)
+                } else {
+                    scene.fog_pass_single(&cam, w, h, d, colour)
+                }
+            };
+            // Interleaved RGB.
+            let mut rgb: Vec<f32> = surface.iter().flatten().copied().collect();
+            run(ColourBuffer::Rgb(&mut rgb)).unwrap();
+            // Interleaved RGBA.
+            let mut rgba: Vec<f32> = (0..n)
+                .flat_map(|i| [surface[i][0], surface[i][1], surface[i][2], alpha[i]])
+                .collect();
+            run(ColourBuffer::Rgba(&mut rgba)).unwrap();
+            // Planar.
+            let mut planes: [Vec<f32>; 3] =
+                [0, 1, 2].map(|c| surface.iter().map(|s| s[c]).collect());
+            let [pr, pg, pb] = &mut planes;
+            run(ColourBuffer::Planar([pr, pg, pb])).unwrap();
+            for i in 0..n {
+                for c in 0..3 {
+                    let e = expect(i, c);
+                    let ctx = || {
+                        format!(
+                            "case {case}, {w}x{h}, pixel ({}, {}), channel {c}, par {par}, {conv:?}, {cam:?}, depth {}",
+                            i % w,
+                            i / w,
+                            depth[i]
+                        )
+                    };
+                    assert_eq!(rgb[3 * i + c].to_bits(), e.to_bits(), "RGB {}", ctx());
+                    assert_eq!(rgba[4 * i + c].to_bits(), e.to_bits(), "RGBA {}", ctx());
+                    assert_eq!(planes[c][i].to_bits(), e.to_bits(), "planar {}", ctx());
+                    // Finite inputs (depth finite or +inf): no NaN.
+                    if !depth[i].is_nan() {
+                        assert!(!e.is_nan(), "NaN for finite input: {}", ctx());
+                    }
+                }
+                assert_eq!(
+                    rgba[4 * i + 3].to_bits(),
+                    alpha[i].to_bits(),
+                    "alpha touched"
+                );
+            }
+        }
+        pixels += n;
+        for (i, &z) in depth.iter().enumerate() {
+            let r = cam.pixel_ray(i % w, i / w, w, h, z, conv).unwrap();
+            sky += usize::from(r.t == f32::INFINITY);
+        }
+    }
+    assert!(sky > 100, "too few sky pixels: {sky} of {pixels}");
+}
+
+/// The pass is the same as `Scene::eval_ray` (the scalar path) too, and a large frame
+/// (many bands, so rayon really splits it) gives the same bits in parallel and single.
+#[test]
+fn large_frame_parallel_equals_single_and_eval_ray() {
+    let mut rng = Rng(7);
+    let scene = scene(&mut rng, 0);
+    let (w, h) = (203, 117);
+    let cam = Camera::perspective(
+        Vec3::new(3.0, 2.0, 1.0),
+        Vec3::new(0.2, -0.1, -1.0),
+        Vec3::Y,
+        1.1,
+        w as f32 / h as f32,
+    )
+    .unwrap();
+    let conv = DepthConvention::NdcZeroToOne {
+        near: 0.1,
+        far: f32::INFINITY,
+        reversed: true,
+    };
+    let depth = depths(&mut rng, conv, w * h);
+    let d = Depth::ndc_reversed(&depth, 0.1, f32::INFINITY);
+    let surface: Vec<f32> = (0..3 * w * h).map(|_| rng.range(0.0, 2.0)).collect();
+    let mut a = surface.clone();
+    let mut b = surface.clone();
+    scene
+        .fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut a))
+        .unwrap();
+    scene
+        .fog_pass_single(&cam, w, h, d, ColourBuffer::Rgb(&mut b))
+        .unwrap();
+    assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+    for i in (0..w * h).step_by(37).chain([w - 1, w * h - 1]) {
+        let r = cam.pixel_ray(i % w, i / w, w, h, depth[i], conv).unwrap();
+        let f = scene.eval_ray(r.origin, r.direction, r.t);
+        for c in 0..3 {
+            let e = Lane::mul_add(surface[3 * i + c], f.transmittance[c], f.inscattering[c]);
+            assert_eq!(a[3 * i + c].to_bits(), e.to_bits(), "pixel {i} channel {c}");
+        }
+    }
+}
+
+fn ndc_uv(x: usize, y: usize, w: usize, h: usize) -> (f64, f64) {
+    (
+        2.0 * (x as f64 + 0.5) / w as f64 - 1.0,
+        1.0 - 2.0 * (y as f64 + 0.5) / h as f64,
+    )
+}
+
+/// `pixel_ray` against an independent f64 unprojection (glam `DMat4`, Direct3D-style
+/// [0, 1] depth): directions within 1e-5 rad, origins and (for the linear conventions)
+/// end points within 1e-5 of the coordinates' scale (|position| + frame size + segment
+/// length);
+/// the view depth from NDC depth within 4 f32 roundings times (the condition number of
+/// the depth conversion + |d|, since the f32 direction's forward component is 1 only to
+/// within |d| roundings: wide fields of view and aspect ratios make |d| large).
+#[test]
+fn pixel_ray_matches_f64_unprojection() {
+    let mut rng = Rng(42);
+    let mut worst = [0.0f64; 4];
+    for case in 0..300 {
+        let (w, h) = (1 + rng.below(200), 1 + rng.below(200));
+        let aspect = w as f32 / h as f32;
+        let pos = Vec3::new(
+            rng.range(-20.0, 20.0),
+            rng.range(-20.0, 20.0),
+            rng.range(-20.0, 20.0),
+        );
+        let fwd = rng.unit();
+        let up = loop {
+            let u = rng.unit();
+            if u.cross(fwd).length() > 0.1 {
+                break u;
+            }
+        };
+        let ortho = case % 2 == 1;
+        let (near, far) = (rng.range(0.05, 1.0), rng.range(50.0, 2000.0));
+        let (cam, proj) = if ortho {
+            let height = rng.range(1.0, 50.0);
+            let cam = Camera::orthographic(pos, fwd, up, height, aspect).unwrap();
+            let (hh, hw) = (height as f64 / 2.0, height as f64 / 2.0 * aspect as f64);
+            (
+                cam,
+                DMat4::orthographic_rh(-hw, hw, -hh, hh, near as f64, far as f64),
+            )
+        } else {
+            let fov = rng.range(0.2, 2.8);
+            let cam = Camera::perspective(pos, fwd, up, fov, aspect).unwrap();
+            (
+                cam,
+                DMat4::perspective_rh(fov as f64, aspect as f64, near as f64, far as f64),
+            )
+        };
+        let (p64, f64_, u64_) = (pos.as_dvec3(), fwd.as_dvec3(), up.as_dvec3());
+        let view = DMat4::look_at_rh(p64, p64 + f64_, u64_);
+        let inv = (proj * view).inverse();
+        let fwd_u = f64_.normalize();
+        for _ in 0..20 {
+            let (x, y) = (rng.below(w), rng.below(h));
+            let (u, v) = ndc_uv(x, y, w, h);
+            let a = inv.project_point3(DVec3::new(u, v, 0.0));
+            let b = inv.project_point3(DVec3::new(u, v, 1.0));
+            let dir = (b - a).normalize();
+            // Origin: the eye, or the camera plane's point on the ray.
+            let origin = if ortho {
+                a - dir * (a - p64).dot(dir)
+            } else {
+                p64
+            };
+            let z = rng.range(0.0, 500.0);
+            for conv in [DepthConvention::LinearView, DepthConvention::Distance] {
+                let r: PixelRay = cam.pixel_ray(x, y, w, h, z, conv).unwrap();
+                let rd = r.direction.as_dvec3();
+                let angle = rd.normalize().cross(dir).length();
+                let scale = if ortho {
+                    (b - a).length().max(1.0)
+                } else {
+                    1.0
+                };
+                let oerr = (r.origin.as_dvec3() - origin).length() / (p64.length() + scale);
+                let end = r.origin.as_dvec3() + rd * r.t as f64;
+                let true_end = match conv {
+                    DepthConvention::LinearView => origin + dir * (z as f64 / dir.dot(fwd_u)),
+                    _ => origin + dir * z as f64,
+                };
+                let eerr =
+                    (end - true_end).length() / (p64.length() + scale + (rd * r.t as f64).length());
+                worst[0] = worst[0].max(angle);
+                worst[1] = worst[1].max(oerr);
+                worst[2] = worst[2].max(eerr);
+                assert!(angle < 1e-5, "case {case}: direction off by {angle} rad");
+                assert!(oerr < 1e-5, "case {case}: origin off by {oerr}");
+                assert!(
+                    eerr < 1e-5,
+                    "case {case}: end point off by {eerr} ({conv:?})"
+                );
+            }
+            // NDC depth: the world point the rasterizer's depth value stands for.
+            for reversed in [false, true] {
+                let dval = rng.f();
+                let conv = DepthConvention::NdcZeroToOne {
+                    near,
+                    far,
+                    reversed,
+                };
+                let r = cam.pixel_ray(x, y, w, h, dval, conv).unwrap();
+                let zs = if reversed {
+                    1.0 - dval as f64
+                } else {
+                    dval as f64
+                };
+                let p = inv.project_point3(DVec3::new(u, v, zs));
+                let true_z = (p - origin).dot(fwd_u);
+                let z = r.t as f64 * r.direction.as_dvec3().dot(fwd_u);
+                // Condition of z(d): |d · z'(d) / z| (1 for linear, f/n-ish near far).
+                let (n, f, d) = (near as f64, far as f64, dval as f64);
+                let cond = if ortho {
+                    (d * (f - n) / true_z.abs().max(1e-3)).abs() + 1.0
+                } else if reversed {
+                    1.0 + d * (1.0 - n / f) / (d * (1.0 - n / f) + n / f)
+                } else {
+                    1.0 + d * (1.0 - n / f) / (1.0 - d * (1.0 - n / f))
+                };
+                let rel = (z - true_z).abs() / true_z.abs().max(1e-3);
+                worst[3] = worst[3].max(rel / (cond + r.direction.length() as f64));
+                assert!(
+                    rel < 4.0 * 2f64.powi(-24) * (cond + r.direction.length() as f64),
+                    "case {case}: NDC depth {dval} reversed {reversed}: z {z} vs {true_z} (cond {cond}) formula {} t {} near {near} far {far} ortho {ortho}", if reversed { n / (d * (1.0 - n / f) + n / f) } else { n / (1.0 - d * (1.0 - n / f)) }, r.t
+                );
+            }
+        }
+    }
+    eprintln!(
+        "worst: direction {:.2e} rad, origin {:.2e}, end point {:.2e}, NDC z rel/cond {:.2e}",
+        worst[0], worst[1], worst[2], worst[3]
+    );
+}
+
+/// A camera from an inverse view-projection matrix gives the same rays (within the f32
+/// matrix's rounding) as the constructor with the same parameters, whatever the
+/// matrix's z convention.
+#[test]
+fn inverse_view_projection_matches_constructors() {
+    let mut rng = Rng(5);
+    for case in 0..200 {
+        let (w, h) = (1 + rng.below(100), 1 + rng.below(100));
+        let aspect = w as f32 / h as f32;
+        let pos = Vec3::new(
+            rng.range(-5.0, 5.0),
+            rng.range(-5.0, 5.0),
+            rng.range(-5.0, 5.0),
+        );
+        let fwd = rng.unit();
+        let up = loop {
+            let u = rng.unit();
+            if u.cross(fwd).length() > 0.1 {
+                break u;
+            }
+        };
+        let view = Mat4::look_at_rh(pos, pos + fwd, up);
+        let fov = rng.range(0.3, 2.5);
+        let (a, b) = if case % 4 == 3 {
+            let height = rng.range(1.0, 20.0);
+            let (hh, hw) = (height / 2.0, height / 2.0 * aspect);
+            let proj = Mat4::orthographic_rh(-hw, hw, -hh, hh, 0.0, 100.0);
+            (
+                Camera::orthographic(pos, fwd, up, height, aspect).unwrap(),
+                Camera::from_inverse_view_projection((proj * view).inverse(), Some(pos)).unwrap(),
+            )
+        } else {
+            let proj = match case % 4 {
+                0 => Mat4::perspective_rh(fov, aspect, 0.1, 100.0),
+                1 => Mat4::perspective_rh_gl(fov, aspect, 0.1, 100.0),
+                _ => Mat4::perspective_infinite_reverse_rh(fov, aspect, 0.1),
+            };
+            (
+                Camera::perspective(pos, fwd, up, fov, aspect).unwrap(),
+                Camera::from_inverse_view_projection((proj * view).inverse(), None).unwrap(),
+            )
+        };
+        assert_eq!(a.projection(), b.projection());
+        assert!((a.forward() - b.forward()).length() < 1e-4, "case {case}");
+        for _ in 0..10 {
+            let (x, y) = (rng.below(w), rng.below(h));
+            let z = rng.range(0.0, 100.0);
+            let ra = a
+                .pixel_ray(x, y, w, h, z, DepthConvention::LinearView)
+                .unwrap();
+            let rb = b
+                .pixel_ray(x, y, w, h, z, DepthConvention::LinearView)
+                .unwrap();
+            let tol = 1e-4 * (1.0 + ra.direction.length());
+            assert!(
+                (ra.origin - rb.origin).length() < 1e-3,
+                "case {case}: {ra:?} {rb:?}"
+            );
+            assert!(
+                (ra.direction - rb.direction).length() < tol,
+                "case {case}: {ra:?} {rb:?}"
+            );
+            assert_eq!(ra.t, rb.t);
+        }
+    }
+}
+
+#[test]
+fn sky_pixels_take_infinite_rays() {
+    let cam = Camera::perspective(Vec3::ZERO, Vec3::Z, Vec3::Y, 1.0, 1.0).unwrap();
+    let cases = [
+        (DepthConvention::LinearView, f32::INFINITY),
+        (DepthConvention::Distance, f32::INFINITY),
+        (
+            DepthConvention::NdcZeroToOne {
+                near: 0.1,
+                far: 100.0,
+                reversed: false,
+            },
+            1.0,
+        ),
+        (
+            DepthConvention::NdcZeroToOne {
+                near: 0.1,
+                far: 100.0,
+                reversed: true,
+            },
+            0.0,
+        ),
+        (
+            DepthConvention::NdcZeroToOne {
+                near: 0.1,
+                far: f32::INFINITY,
+                reversed: true,
+            },
+            0.0,
+        ),
+        (
+            DepthConvention::NdcZeroToOne {
+                near: 0.1,
+                far: f32::INFINITY,
+                reversed: false,
+            },
+            1.0,
+        ),
+    ];
+    for (conv, d) in cases {
+        assert_eq!(
+            cam.pixel_ray(1, 2, 4, 4, d, conv).unwrap().t,
+            f32::INFINITY,
+            "{conv:?}"
+        );
+    }
+    // The near plane is at the view depth `near`.
+    let r = cam
+        .pixel_ray(
+            0,
+            0,
+            1,
+            1,
+            1.0,
+            DepthConvention::NdcZeroToOne {
+                near: 0.5,
+                far: 100.0,
+                reversed: true,
+            },
+        )
+        .unwrap();
+    assert_eq!(r.t, 0.5);
+    let ortho = Camera::orthographic(Vec3::ZERO, Vec3::Z, Vec3::Y, 2.0, 1.0).unwrap();
+    let conv = DepthConvention::NdcZeroToOne {
+        near: 1.0,
+        far: 11.0,
+        reversed: false,
+    };
+    assert_eq!(ortho.pixel_ray(0, 0, 2, 2, 0.5, conv).unwrap().t, 6.0);
+    assert_eq!(
+        ortho.pixel_ray(0, 0, 2, 2, 1.0, conv).unwrap().t,
+        f32::INFINITY
+    );
+    // Negative depths: no fog (t = 0); NaN stays NaN.
+    assert_eq!(
+        cam.pixel_ray(0, 0, 1, 1, -3.0, DepthConvention::LinearView)
+            .unwrap()
+            .t,
+        0.0
+    );
+    assert!(cam
+        .pixel_ray(0, 0, 1, 1, f32::NAN, DepthConvention::LinearView)
+        .unwrap()
+        .t
+        .is_nan());
+}
+
+#[test]
+fn wrong_lengths_and_parameters_are_errors_naming_the_buffer() {
+    let mut rng = Rng(3);
+    let scene = scene(&mut rng, 0);
+    let cam = Camera::perspective(Vec3::ZERO, Vec3::Z, Vec3::Y, 1.0, 1.0).unwrap();
+    let (w, h) = (5, 3);
+    let depth = vec![1.0f32; w * h];
+    let short = vec![1.0f32; w * h - 1];
+    let d = Depth::linear_view(&depth);
+    let msg = |e: PassError| e.to_string();
+
+    let mut c = vec![0.0f32; 3 * w * h];
+    let e = scene.fog_pass(
+        &cam,
+        w,
+        h,
+        Depth::linear_view(&short),
+        ColourBuffer::Rgb(&mut c),
+    );
+    assert_eq!(
+        msg(e.unwrap_err()),
+        "depth: has 14 elements, a 5x3 frame needs 15"
+    );
+    let mut c = vec![0.0f32; 3 * w * h + 1];
+    let e = scene
+        .fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut c))
+        .unwrap_err();
+    assert_eq!(
+        e,
+        PassError::BufferLength {
+            buffer: "colour",
+            expected: 45,
+            found: 46,
+            width: 5,
+            height: 3
+        }
+    );
+    let mut c = vec![0.0f32; 3 * w * h];
+    let e = scene
+        .fog_pass_single(&cam, w, h, d, ColourBuffer::Rgba(&mut c))
+        .unwrap_err();
+    assert_eq!(msg(e), "colour: has 45 elements, a 5x3 frame needs 60");
+    let (mut r, mut g, mut b) = (vec![0.0f32; 15], vec![0.0f32; 15], vec![0.0f32; 14]);
+    let e = scene.fog_pass(
+        &cam,
+        w,
+        h,
+        d,
+        ColourBuffer::Planar([&mut r, &mut g, &mut b]),
+    );
+    assert_eq!(
+        msg(e.unwrap_err()),
+        "colour.b: has 14 elements, a 5x3 frame needs 15"
+    );
+    let mut g2 = vec![0.0f32; 16];
+    let e = scene.fog_pass(
+        &cam,
+        w,
+        h,
+        d,
+        ColourBuffer::Planar([&mut r, &mut g2, &mut b]),
+    );
+    assert_eq!(
+        msg(e.unwrap_err()),
+        "colour.g: has 16 elements, a 5x3 frame needs 15"
+    );
+    // Nothing written on error.
+    assert!(r.iter().all(|&v| v == 0.0));
+
+    let mut c = vec![0.0f32; 3 * w * h];
+    let bad = Depth::ndc(&depth, 0.0, 100.0);
+    let e = scene
+        .fog_pass(&cam, w, h, bad, ColourBuffer::Rgb(&mut c))
+        .unwrap_err();
+    assert!(msg(e).starts_with("depth.near, depth.far: perspective: must be 0 < near < far"));
+    let e = cam
+        .pixel_ray(5, 0, w, h, 1.0, DepthConvention::LinearView)
+        .unwrap_err();
+    assert_eq!(msg(e), "pixel (5, 0): outside the 5x3 frame");
+
+    // Empty frames are fine.
+    scene
+        .fog_pass(
+            &cam,
+            0,
+            7,
+            Depth::linear_view(&[]),
+            ColourBuffer::Rgb(&mut []),
+        )
+        .unwrap();
+
+    // Camera parameters.
+    let e = Camera::perspective(Vec3::ZERO, Vec3::Z, Vec3::Z, 1.0, 1.0).unwrap_err();
+    assert!(msg(e).starts_with("up: "));
+    let e = Camera::perspective(Vec3::ZERO, Vec3::ZERO, Vec3::Y, 1.0, 1.0).unwrap_err();
+    assert!(msg(e).starts_with("forward: "));
+    let e = Camera::perspective(Vec3::ZERO, Vec3::Z, Vec3::Y, 3.2, 1.0).unwrap_err();
+    assert!(msg(e).starts_with("fov_y: "));
+    let e = Camera::orthographic(Vec3::NAN, Vec3::Z, Vec3::Y, 1.0, 1.0).unwrap_err();
+    assert!(msg(e).starts_with("position: "));
+    let e = Camera::orthographic(Vec3::ZERO, Vec3::Z, Vec3::Y, 1.0, -1.0).unwrap_err();
+    assert!(msg(e).starts_with("aspect: "));
+    let e = Camera::from_inverse_view_projection(Mat4::ZERO, None).unwrap_err();
+    assert_eq!(msg(e), "inv_vp: must be invertible");
+    let ortho = Mat4::orthographic_rh(-1.0, 1.0, -1.0, 1.0, 0.1, 10.0).inverse();
+    let e = Camera::from_inverse_view_projection(ortho, None).unwrap_err();
+    assert!(msg(e).starts_with("position: required"));
+}
