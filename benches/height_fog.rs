@@ -8,7 +8,7 @@
 //! Set `FOG_BENCH_STREAM=0` to skip the 16M-ray groups.
 
 use analytic_fog::{
-    Component, HeightFogLayer, Lighting, Outputs, Phase, Rays, Scene, SceneDesc, Sun,
+    Component, HeightFogLayer, Lighting, Outputs, Phase, Rays, Scene, SceneDesc, Sun, Tier,
 };
 use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use glam::Vec3;
@@ -153,6 +153,12 @@ fn in_cache(c: &mut Criterion) {
             let mut o = Out::new(n);
             g.bench_function(BenchmarkId::new("x8_unit", set), |b| {
                 b.iter(|| sc.evaluate(&rays(&r, true), o.outputs(full)).unwrap())
+            });
+            g.bench_function(BenchmarkId::new("x8_unit_fast", set), |b| {
+                b.iter(|| {
+                    sc.evaluate_tier(Tier::Fast, &rays(&r, true), o.outputs(full))
+                        .unwrap()
+                })
             });
             g.bench_function(BenchmarkId::new("x8_general", set), |b| {
                 b.iter(|| sc.evaluate(&rays(&r, false), o.outputs(full)).unwrap())

@@ -7,7 +7,7 @@
 //! (no dot product for ±X/±Y/±Z), unit directions (no |d|), and the outputs wanted, so
 //! that work a call does not need is compiled out rather than skipped at run time.
 
-use crate::math::{exp_neg, ldexp, pow2_pair, Lane};
+use crate::math::{exp_neg, exp_neg_fast, ldexp, pow2_pair, Lane};
 use crate::medium::height_fog::{direction_norm, layer_depth, RayGeom, TWO_M64};
 use crate::medium::volume::clamp_colour;
 use crate::ray::{Outputs, Rays};
@@ -127,10 +127,13 @@ pub(crate) fn eval_packet<
     const UNIT: bool,
     const WANT_T: bool,
     const WANT_L: bool,
+    const FAST: bool,
 >(
     scene: &Scene,
     p: &PacketIn<L>,
 ) -> PacketOut<L> {
+    // The tier's transmittance (see `Tier`).
+    let exp_neg = |x: L| if FAST { exp_neg_fast(x) } else { exp_neg(x) };
     let zero = L::splat(0.0);
     let one = L::splat(1.0);
     let mut out = PacketOut {
@@ -144,7 +147,7 @@ pub(crate) fn eval_packet<
 
     {
         let layer = &layers[0];
-        let (gm, ge) = layer_depth(layer, &geom);
+        let (gm, ge) = layer_depth::<L, FAST>(layer, &geom);
         let grey = layer.sigma[0] == layer.sigma[1] && layer.sigma[1] == layer.sigma[2];
         if grey {
             // One optical depth and one exponential for all three channels.
@@ -202,8 +205,18 @@ fn eval_general<L: Lane, const AXIS: usize, const UNIT: bool>(
     p: PacketIn<L>,
     want_t: bool,
     want_l: bool,
+    fast: bool,
 ) -> PacketOut<L> {
     let p = &p;
+    // The tier (see `Tier`): a predictable branch per call.
+    let layer_depth = |layer: &LayerPlan, geom: &RayGeom<L>| {
+        if fast {
+            layer_depth::<L, true>(layer, geom)
+        } else {
+            layer_depth::<L, false>(layer, geom)
+        }
+    };
+    let exp_neg = |x: L| if fast { exp_neg_fast(x) } else { exp_neg(x) };
     let (geom, norm, dir, sun) = packet_geometry::<L, AXIS, UNIT>(scene, p, want_l);
     let (geom, dir) = (&geom, &dir);
     let zero = L::splat(0.0);
@@ -299,7 +312,14 @@ fn store<L: Lane>(v: [L; 3], dst: &mut Option<crate::ray::RgbSlices<'_>>, i: usi
 
 /// Evaluates a whole batch with lanes of type `L` (full packets), then the tail (for
 /// `f32x8`) as one padded packet.
-fn run<L: Lane, const AXIS: usize, const UNIT: bool, const WANT_T: bool, const WANT_L: bool>(
+fn run<
+    L: Lane,
+    const AXIS: usize,
+    const UNIT: bool,
+    const WANT_T: bool,
+    const WANT_L: bool,
+    const FAST: bool,
+>(
     scene: &Scene,
     rays: &Rays<'_>,
     out: &mut Outputs<'_>,
@@ -339,9 +359,9 @@ fn run<L: Lane, const AXIS: usize, const UNIT: bool, const WANT_T: bool, const W
         }};
     }
     if is_single_layer(scene) {
-        packets!(|p: PacketIn<L>| eval_packet::<L, AXIS, UNIT, WANT_T, WANT_L>(scene, &p));
+        packets!(|p: PacketIn<L>| eval_packet::<L, AXIS, UNIT, WANT_T, WANT_L, FAST>(scene, &p));
     } else {
-        packets!(|p: PacketIn<L>| eval_general::<L, AXIS, UNIT>(scene, p, WANT_T, WANT_L));
+        packets!(|p: PacketIn<L>| eval_general::<L, AXIS, UNIT>(scene, p, WANT_T, WANT_L, FAST));
     }
     if full < n {
         // The tail: pad to one 8-lane packet with a harmless ray (t = 0), evaluate, and
@@ -357,9 +377,9 @@ fn run<L: Lane, const AXIS: usize, const UNIT: bool, const WANT_T: bool, const W
         let t = f32x8::new(pad(rays.t, 0.0));
         let p = PacketIn { o, d, t };
         let r = if is_single_layer(scene) {
-            eval_packet::<f32x8, AXIS, UNIT, WANT_T, WANT_L>(scene, &p)
+            eval_packet::<f32x8, AXIS, UNIT, WANT_T, WANT_L, FAST>(scene, &p)
         } else {
-            eval_general::<f32x8, AXIS, UNIT>(scene, p, WANT_T, WANT_L)
+            eval_general::<f32x8, AXIS, UNIT>(scene, p, WANT_T, WANT_L, FAST)
         };
         let put = |v: [f32x8; 3], dst: &mut Option<crate::ray::RgbSlices<'_>>| {
             if let Some(d) = dst {
@@ -377,33 +397,37 @@ fn run<L: Lane, const AXIS: usize, const UNIT: bool, const WANT_T: bool, const W
 /// Which lane type a batch runs with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Width {
+    /// 8 lanes, Accurate tier.
     X8,
+    /// 8 lanes, Fast tier.
+    X8Fast,
+    /// 1 lane, Accurate tier (bit-identical to `X8`).
     Scalar,
 }
 
 macro_rules! dispatch_outputs {
-    ($L:ty, $AXIS:expr, $UNIT:expr, $scene:expr, $rays:expr, $out:expr) => {{
+    ($L:ty, $F:expr, $AXIS:expr, $UNIT:expr, $scene:expr, $rays:expr, $out:expr) => {{
         let want_l = $out.inscattering.is_some();
         let want_t = $out.transmittance.is_some();
         match (want_t, want_l) {
-            (_, true) => run::<$L, $AXIS, $UNIT, true, true>($scene, $rays, $out),
-            (true, false) => run::<$L, $AXIS, $UNIT, true, false>($scene, $rays, $out),
-            (false, false) => run::<$L, $AXIS, $UNIT, false, false>($scene, $rays, $out),
+            (_, true) => run::<$L, $AXIS, $UNIT, true, true, $F>($scene, $rays, $out),
+            (true, false) => run::<$L, $AXIS, $UNIT, true, false, $F>($scene, $rays, $out),
+            (false, false) => run::<$L, $AXIS, $UNIT, false, false, $F>($scene, $rays, $out),
         }
     }};
 }
 
 macro_rules! dispatch_geometry {
-    ($L:ty, $scene:expr, $rays:expr, $out:expr) => {{
+    ($L:ty, $F:expr, $scene:expr, $rays:expr, $out:expr) => {{
         match ($scene.axis, $rays.unit) {
-            (UpAxis::Axis(0), false) => dispatch_outputs!($L, 0, false, $scene, $rays, $out),
-            (UpAxis::Axis(1), false) => dispatch_outputs!($L, 1, false, $scene, $rays, $out),
-            (UpAxis::Axis(2), false) => dispatch_outputs!($L, 2, false, $scene, $rays, $out),
-            (UpAxis::Axis(0), true) => dispatch_outputs!($L, 0, true, $scene, $rays, $out),
-            (UpAxis::Axis(1), true) => dispatch_outputs!($L, 1, true, $scene, $rays, $out),
-            (UpAxis::Axis(2), true) => dispatch_outputs!($L, 2, true, $scene, $rays, $out),
-            (_, false) => dispatch_outputs!($L, GENERAL, false, $scene, $rays, $out),
-            (_, true) => dispatch_outputs!($L, GENERAL, true, $scene, $rays, $out),
+            (UpAxis::Axis(0), false) => dispatch_outputs!($L, $F, 0, false, $scene, $rays, $out),
+            (UpAxis::Axis(1), false) => dispatch_outputs!($L, $F, 1, false, $scene, $rays, $out),
+            (UpAxis::Axis(2), false) => dispatch_outputs!($L, $F, 2, false, $scene, $rays, $out),
+            (UpAxis::Axis(0), true) => dispatch_outputs!($L, $F, 0, true, $scene, $rays, $out),
+            (UpAxis::Axis(1), true) => dispatch_outputs!($L, $F, 1, true, $scene, $rays, $out),
+            (UpAxis::Axis(2), true) => dispatch_outputs!($L, $F, 2, true, $scene, $rays, $out),
+            (_, false) => dispatch_outputs!($L, $F, GENERAL, false, $scene, $rays, $out),
+            (_, true) => dispatch_outputs!($L, $F, GENERAL, true, $scene, $rays, $out),
         }
     }};
 }
@@ -411,8 +435,9 @@ macro_rules! dispatch_geometry {
 /// Evaluates a batch on the calling thread.
 pub(crate) fn evaluate(scene: &Scene, rays: &Rays<'_>, out: &mut Outputs<'_>, width: Width) {
     match width {
-        Width::X8 => dispatch_geometry!(f32x8, scene, rays, out),
-        Width::Scalar => dispatch_geometry!(f32, scene, rays, out),
+        Width::X8 => dispatch_geometry!(f32x8, false, scene, rays, out),
+        Width::X8Fast => dispatch_geometry!(f32x8, true, scene, rays, out),
+        Width::Scalar => dispatch_geometry!(f32, false, scene, rays, out),
     }
 }
 
@@ -422,19 +447,19 @@ pub(crate) const PAR_CHUNK: usize = 4096;
 
 /// Evaluates a batch with rayon, splitting it in halves (multiples of 8 rays) down to
 /// chunks of [`PAR_CHUNK`] rays.
-pub(crate) fn evaluate_par(scene: &Scene, rays: &Rays<'_>, out: Outputs<'_>) {
+pub(crate) fn evaluate_par(scene: &Scene, rays: &Rays<'_>, out: Outputs<'_>, width: Width) {
     let n = rays.len();
     if n <= PAR_CHUNK {
         let mut out = out;
-        evaluate(scene, rays, &mut out, Width::X8);
+        evaluate(scene, rays, &mut out, width);
         return;
     }
     let mid = (n / 2).next_multiple_of(8).min(n);
     let (a, b) = out.split_at(mid);
     let (ra, rb) = (rays.slice(0, mid), rays.slice(mid, n));
     rayon::join(
-        || evaluate_par(scene, &ra, a),
-        || evaluate_par(scene, &rb, b),
+        || evaluate_par(scene, &ra, a, width),
+        || evaluate_par(scene, &rb, b, width),
     );
 }
 
@@ -459,7 +484,7 @@ pub(crate) trait PacketIo {
 #[inline(always)]
 pub(crate) fn run_packets<const UNIT: bool, S: PacketIo>(scene: &Scene, count: usize, io: &mut S) {
     #[inline(always)]
-    fn go<const AXIS: usize, const UNIT: bool, S: PacketIo>(
+    fn go<const AXIS: usize, const UNIT: bool, const FAST: bool, S: PacketIo>(
         scene: &Scene,
         count: usize,
         io: &mut S,
@@ -467,20 +492,24 @@ pub(crate) fn run_packets<const UNIT: bool, S: PacketIo>(scene: &Scene, count: u
         if is_single_layer(scene) {
             for i in 0..count {
                 let p = io.make(i);
-                let r = eval_packet::<f32x8, AXIS, UNIT, true, true>(scene, &p);
+                let r = eval_packet::<f32x8, AXIS, UNIT, true, true, FAST>(scene, &p);
                 io.take(i, &r);
             }
         } else {
             for i in 0..count {
-                let r = eval_general::<f32x8, AXIS, UNIT>(scene, io.make(i), true, true);
+                let r = eval_general::<f32x8, AXIS, UNIT>(scene, io.make(i), true, true, FAST);
                 io.take(i, &r);
             }
         }
     }
-    match scene.axis {
-        UpAxis::Axis(0) => go::<0, UNIT, S>(scene, count, io),
-        UpAxis::Axis(1) => go::<1, UNIT, S>(scene, count, io),
-        UpAxis::Axis(2) => go::<2, UNIT, S>(scene, count, io),
-        _ => go::<GENERAL, UNIT, S>(scene, count, io),
+    match (scene.axis, scene.tier == crate::Tier::Fast) {
+        (UpAxis::Axis(0), false) => go::<0, UNIT, false, S>(scene, count, io),
+        (UpAxis::Axis(1), false) => go::<1, UNIT, false, S>(scene, count, io),
+        (UpAxis::Axis(2), false) => go::<2, UNIT, false, S>(scene, count, io),
+        (_, false) => go::<GENERAL, UNIT, false, S>(scene, count, io),
+        (UpAxis::Axis(0), true) => go::<0, UNIT, true, S>(scene, count, io),
+        (UpAxis::Axis(1), true) => go::<1, UNIT, true, S>(scene, count, io),
+        (UpAxis::Axis(2), true) => go::<2, UNIT, true, S>(scene, count, io),
+        (_, true) => go::<GENERAL, UNIT, true, S>(scene, count, io),
     }
 }

@@ -83,7 +83,7 @@ pub use error::{BatchError, PassError, SceneError};
 pub use light::Phase;
 pub use medium::volume::{Profile, Shape, Volume, MAX_CUTS};
 pub use ray::{Outputs, Rays, RgbSlices};
-pub use scene::{Component, HeightFogLayer, Lighting, Scene, SceneDesc, Sun};
+pub use scene::{Component, HeightFogLayer, Lighting, Scene, SceneDesc, Sun, Tier};
 
 use glam::Vec3;
 use kernel::Width;
@@ -120,14 +120,25 @@ pub struct FogSample {
 impl Scene {
     /// Evaluates a batch 8 rays at a time on the calling thread, writing the outputs that
     /// `out` asks for. Errors if a slice's length differs from the batch's.
-    pub fn evaluate(&self, rays: &Rays<'_>, mut out: Outputs<'_>) -> Result<(), BatchError> {
+    /// Runs the scene's tier ([`SceneDesc::tier`], Accurate by default).
+    pub fn evaluate(&self, rays: &Rays<'_>, out: Outputs<'_>) -> Result<(), BatchError> {
+        self.evaluate_tier(self.tier, rays, out)
+    }
+
+    /// [`Scene::evaluate`] with the accuracy tier chosen for this call.
+    pub fn evaluate_tier(
+        &self,
+        tier: Tier,
+        rays: &Rays<'_>,
+        mut out: Outputs<'_>,
+    ) -> Result<(), BatchError> {
         out.check(rays.len())?;
-        kernel::evaluate(self, rays, &mut out, Width::X8);
+        kernel::evaluate(self, rays, &mut out, tier.width());
         Ok(())
     }
 
-    /// The scalar path: the same kernel one ray at a time. Bit-identical to
-    /// [`Scene::evaluate`].
+    /// The scalar path: the same kernel one ray at a time, always the Accurate tier.
+    /// Bit-identical to [`Scene::evaluate`] in the Accurate tier.
     pub fn evaluate_scalar(&self, rays: &Rays<'_>, mut out: Outputs<'_>) -> Result<(), BatchError> {
         out.check(rays.len())?;
         kernel::evaluate(self, rays, &mut out, Width::Scalar);
@@ -137,12 +148,22 @@ impl Scene {
     /// Like [`Scene::evaluate`], in parallel with rayon over cache-sized chunks.
     /// Bit-identical to [`Scene::evaluate`].
     pub fn evaluate_par(&self, rays: &Rays<'_>, out: Outputs<'_>) -> Result<(), BatchError> {
+        self.evaluate_par_tier(self.tier, rays, out)
+    }
+
+    /// [`Scene::evaluate_par`] with the accuracy tier chosen for this call.
+    pub fn evaluate_par_tier(
+        &self,
+        tier: Tier,
+        rays: &Rays<'_>,
+        out: Outputs<'_>,
+    ) -> Result<(), BatchError> {
         out.check(rays.len())?;
-        kernel::evaluate_par(self, rays, out);
+        kernel::evaluate_par(self, rays, out, tier.width());
         Ok(())
     }
 
-    /// The fog along one ray `origin + s * dir`, s in [0, t] (scalar path).
+    /// The fog along one ray `origin + s * dir`, s in [0, t] (scalar path, Accurate tier).
     pub fn eval_ray(&self, origin: Vec3, dir: Vec3, t: f32) -> FogSample {
         let (o, d) = (origin.to_array(), dir.to_array());
         let (mut tau, mut tr, mut li) = ([[0.0f32]; 3], [[0.0f32]; 3], [[0.0f32]; 3]);

@@ -772,3 +772,163 @@ fn ldexp_sweep() {
     st.fails.assert_none("ldexp");
     assert_max("ldexp", &st.errors, 0.5);
 }
+
+// ---------------------------------------------------------------------------------------
+// The Fast tier's exponentials (`math::fast`): relative error against f64
+
+/// Documented in `src/math/fast.rs`.
+const EXP_NEG_FAST_MAX_REL: f64 = 1.5e-5;
+const EXP_SPLIT_FAST_MAX_REL: f64 = 1.5e-5;
+const EXPREL_NEG_FAST_MAX_REL: f64 = 3.5e-5;
+
+#[derive(Default)]
+struct RelState {
+    worst: f64,
+    at: f32,
+    fails: Failures,
+}
+
+impl RelState {
+    fn merge(self, o: RelState) -> RelState {
+        let (worst, at) = if o.worst > self.worst {
+            (o.worst, o.at)
+        } else {
+            (self.worst, self.at)
+        };
+        RelState {
+            worst,
+            at,
+            fails: self.fails.merge(o.fails),
+        }
+    }
+    fn record(&mut self, x: f32, got: f64, want: f64) {
+        let e = if got == want {
+            0.0
+        } else {
+            (got - want).abs() / want.abs()
+        };
+        // NaN errors win too (`partial_cmp` is None for them).
+        if e.partial_cmp(&self.worst) != Some(std::cmp::Ordering::Less)
+            && e.partial_cmp(&self.worst) != Some(std::cmp::Ordering::Equal)
+        {
+            self.worst = e;
+            self.at = x;
+        }
+    }
+}
+
+/// Sweeps the Fast tier's three functions over `ranges` (every `step`-th 8-group of bit
+/// patterns; 1 = all), checks x8 = scalar bit for bit, NaN for NaN, and returns the max
+/// relative errors of (exp_neg_fast, exp_split_fast, exprel_neg_fast) on their domains.
+fn fast_sweep(step: u64) -> [RelState; 3] {
+    let top = 2f32.powi(11);
+    let go = |ranges: BitRanges, k: usize| -> RelState {
+        sweep(
+            &ranges,
+            |a: RelState, b: RelState| a.merge(b),
+            |st, xs, live| {
+                if step > 1 && (xs[0].to_bits() as u64 / 8) % step != 0 {
+                    return;
+                }
+                let name = ["exp_neg_fast", "exp_split_fast", "exprel_neg_fast"][k];
+                let y: [f64; 8] = match k {
+                    0 => x8_and_scalar(
+                        xs,
+                        live,
+                        &mut st.fails,
+                        name,
+                        math::exp_neg_fast,
+                        math::exp_neg_fast,
+                    )
+                    .map(|v| v as f64),
+                    1 => {
+                        let (m, e) = math::exp_split_fast(f32x8::new(xs));
+                        let (m, e) = (m.to_array(), e.to_array());
+                        let mut out = [0.0; 8];
+                        for l in 0..live {
+                            let (ms, es) = math::exp_split_fast(xs[l]);
+                            st.fails.check(
+                                ms.to_bits() == m[l].to_bits() && es.to_bits() == e[l].to_bits(),
+                                || format!("{name}({:e}): x8 and scalar differ", xs[l]),
+                            );
+                            // Compared in log space: m·2^e with e up to ±2^20.
+                            out[l] = (m[l] as f64).ln() + e[l] as f64 * std::f64::consts::LN_2;
+                        }
+                        out
+                    }
+                    _ => x8_and_scalar(
+                        xs,
+                        live,
+                        &mut st.fails,
+                        name,
+                        math::exprel_neg_fast,
+                        math::exprel_neg_fast,
+                    )
+                    .map(|v| v as f64),
+                };
+                for l in 0..live {
+                    let x = xs[l];
+                    if x.is_nan() {
+                        st.fails
+                            .check(y[l].is_nan(), || format!("{name}(NaN) = {:e}", y[l]));
+                        continue;
+                    }
+                    let xd = x as f64;
+                    match k {
+                        0 => {
+                            let r = (-xd).exp();
+                            if r >= f32::MIN_POSITIVE as f64 {
+                                st.record(x, y[l], r);
+                            } else {
+                                st.fails.check(y[l] < 1.2e-38, || {
+                                    format!("{name}({x:e}) = {:e}: not flushed", y[l])
+                                });
+                            }
+                        }
+                        // ln(m·2^e) − x: the relative error of m·2^e is e^(that) − 1.
+                        1 if (-708.0..=709.0).contains(&xd) => {
+                            st.record(x, (y[l] - xd).exp_m1().abs() + 1.0, 1.0)
+                        }
+                        1 => {}
+                        _ if x <= top => st.record(x, y[l], -(-xd).exp_m1() / xd),
+                        _ => {}
+                    }
+                }
+            },
+        )
+    };
+    [
+        go(vec![(0, 0x7fff_ffff)], 0),
+        go(all_f32(), 1),
+        go(vec![(2f32.powi(-60).to_bits(), 0x7fff_ffff)], 2),
+    ]
+}
+
+fn check_fast(st: [RelState; 3]) {
+    let bounds = [
+        EXP_NEG_FAST_MAX_REL,
+        EXP_SPLIT_FAST_MAX_REL,
+        EXPREL_NEG_FAST_MAX_REL,
+    ];
+    for (k, (s, b)) in st.into_iter().zip(bounds).enumerate() {
+        let name = ["exp_neg_fast", "exp_split_fast", "exprel_neg_fast"][k];
+        println!(
+            "math::{name:<16} max relative error {:.3e} at x = {:e}",
+            s.worst, s.at
+        );
+        s.fails.assert_none(name);
+        assert!(s.worst <= b, "{name}: {:e} > documented {b:e}", s.worst);
+    }
+}
+
+#[test]
+#[ignore = "exhaustive sweep: run in release with --ignored"]
+fn fast_tier_exhaustive() {
+    check_fast(fast_sweep(1));
+}
+
+/// Every 4099th group of 8 bit patterns: a quick version of the sweep above.
+#[test]
+fn fast_tier_sampled() {
+    check_fast(fast_sweep(4099));
+}

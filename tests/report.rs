@@ -35,7 +35,7 @@ fn report_rows_files_and_bounds() {
         "volume_gaussian",
         "mixed",
     ];
-    let methods = 4 + 3;
+    let methods = 5 + 3;
     assert_eq!(r.rows.len(), kernels.len() * 2 * methods);
     for k in kernels {
         for set in ["typical", "extreme"] {
@@ -64,6 +64,17 @@ fn report_rows_files_and_bounds() {
             // x8 and scalar are bit-identical, so their errors are too.
             assert_eq!(acc.t_abs, sc.t_abs, "{k} {set}");
             assert_eq!(acc.nan_rays, 0, "{k} {set}: NaN from the kernel");
+            // The Fast tier: its own 1e-4 on top of the Accurate tier's error.
+            let fast = rows
+                .iter()
+                .find(|x| x.method == Method::FastX8)
+                .expect("fast row");
+            assert_eq!(fast.nan_rays, 0, "{k} {set}: NaN from the Fast tier");
+            assert!(
+                fast.t_abs.max <= acc.t_abs.max + 1e-4,
+                "{k} {set}: Fast |ΔT| {:e}",
+                fast.t_abs.max
+            );
             // The stated bounds (README "Accuracy"): height fog and the mixed scene's
             // typical rays to a few f32 roundings of T; volumes on typical rays (grazing
             // rays included) within 1e-4; extreme volume rays (cameras up to 1e6 radii

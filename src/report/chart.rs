@@ -22,6 +22,7 @@ fn clampf(x: f64) -> f64 {
 fn colour(m: Method) -> RGBColor {
     match m {
         Method::AccurateX8 => RGBColor(31, 119, 180),
+        Method::FastX8 => RGBColor(23, 190, 207),
         Method::Scalar => RGBColor(44, 160, 44),
         Method::Reference => RGBColor(0, 0, 0),
         Method::Seed => RGBColor(214, 39, 40),

@@ -5,7 +5,7 @@
 use super::rays::RaysRef;
 use crate::reference as rf;
 use crate::reference::volume as rv;
-use crate::{Outputs, Phase, Profile, Rays, Scene, SceneDesc, Shape};
+use crate::{Outputs, Phase, Profile, Rays, Scene, SceneDesc, Shape, Tier};
 use glam::{DVec3, Vec3};
 
 /// One method of evaluating a kernel's scene.
@@ -13,6 +13,8 @@ use glam::{DVec3, Vec3};
 pub enum Method {
     /// The crate's 8-lane kernel, Accurate tier.
     AccurateX8,
+    /// The crate's 8-lane kernel, Fast tier.
+    FastX8,
     /// The crate's scalar path (Accurate tier; bit-identical to x8).
     Scalar,
     /// The f64 reference (`analytic_fog::reference`): defines the errors.
@@ -29,6 +31,7 @@ impl Method {
     pub fn name(&self) -> String {
         match self {
             Method::AccurateX8 => "accurate_x8".into(),
+            Method::FastX8 => "fast_x8".into(),
             Method::Scalar => "scalar".into(),
             Method::Reference => "reference_f64".into(),
             Method::Seed => "seed".into(),
@@ -404,7 +407,7 @@ impl Evaluators {
     pub fn apply(&self, method: Method, rays: RaysRef<'_>, out: &mut OutCols<'_>) {
         let n = rays.len();
         match method {
-            Method::AccurateX8 | Method::Scalar => {
+            Method::AccurateX8 | Method::FastX8 | Method::Scalar => {
                 let r = Rays::new(
                     rays.o[0], rays.o[1], rays.o[2], rays.d[0], rays.d[1], rays.d[2], rays.t,
                 )
@@ -417,7 +420,8 @@ impl Evaluators {
                     inscattering: Some([g, h, i]),
                 };
                 let res = match method {
-                    Method::AccurateX8 => self.accurate.evaluate(&r, o),
+                    Method::AccurateX8 => self.accurate.evaluate_tier(Tier::Accurate, &r, o),
+                    Method::FastX8 => self.accurate.evaluate_tier(Tier::Fast, &r, o),
                     _ => self.accurate.evaluate_scalar(&r, o),
                 };
                 res.expect("equal lengths");

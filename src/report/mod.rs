@@ -393,6 +393,7 @@ pub fn run(opts: &Options, progress: &mut dyn FnMut(&str)) -> Result<Report, Str
             };
             let mut methods = vec![
                 Method::AccurateX8,
+                Method::FastX8,
                 Method::Scalar,
                 Method::Reference,
                 Method::Seed,

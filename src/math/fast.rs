@@ -1,0 +1,68 @@
+//! The Fast tier's exponentials: the same reductions and reconstructions as `exp_neg`,
+//! `exp_split` and `exprel_neg`, with the degree-4/5 polynomial `Q` replaced by one of
+//! degree 2 (shared by all three) and, where the reduced argument allows it, a one-term
+//! Cody–Waite reduction.
+//!
+//! `Q2(r) ≈ (e^r − 1 − r)/r²` on [−ln2/2, ln2/2] (`tools/fit_poly.py`, Chebyshev fit):
+//! approximation error alone (f64) 1.40e-5 relative in `e^r = 1 + r + r²·Q2(r)` and
+//! 3.37e-5 relative in `e^r − 1 = r + r²·Q2(r)`.
+//!
+//! Measured (`tests/exhaustive.rs`, `fast_tier_exhaustive`, every f32 of the domain
+//! against f64, relative error; x8 and scalar bit-identical):
+//! - `exp_neg_fast(x)`, x ≥ 0: 1.424e-5 (at x = 85.60) for results ≥ 2^-126 (x ≤ 87.33),
+//!   then flushed to 0 as `exp_neg` does;
+//! - `exp_split_fast(x)` = m·2^k: 1.403e-5 on [−708, 709] (m·2^k against e^x in f64);
+//! - `exprel_neg_fast(x)` = (1 − e^(−x))/x: 3.376e-5 (at x = 0.3466) on [2^-60, 2^11].
+//!
+//! These bounds are what the Fast tier's 1e-4 bounds on T and L_in are built from (see
+//! `Tier`); the NaN, infinity and saturation behaviour is that of the Accurate functions.
+
+use super::exp::{reduce_ln2, LOG2E};
+use super::Lane;
+
+/// ln 2 rounded to f32: the one-term reduction `w = x + k·ln2` is off by at most
+/// |k| · 1.9e-9, i.e. 2.4e-7 relative for |k| ≤ 127.
+const LN2: f32 = core::f32::consts::LN_2;
+
+/// `Q2(r)` with the odd coefficient's sign chosen at compile time (`sign = -1` evaluates
+/// `Q2(−w)`).
+#[inline(always)]
+fn q2_signed<L: Lane>(w: L, sign: f32) -> L {
+    let c2 = L::splat(0.041_791_987);
+    let c1 = L::splat(sign * 0.167_418_99);
+    let c0 = L::splat(0.5);
+    c2.mul_add(w, c1).mul_add(w, c0)
+}
+
+/// `e^(-x)` for `x ≥ 0` (including `+inf`, which gives 0), relative error ≤ 1.5e-5 for
+/// results ≥ 2^-126; NaN for NaN.
+#[inline(always)]
+pub fn exp_neg_fast<L: Lane>(x: L) -> L {
+    let x = L::splat(88.0).min(x);
+    let k = (x * L::splat(-LOG2E)).round();
+    let w = k.mul_add(L::splat(LN2), x);
+    let p = (w * w).mul_sub(q2_signed(w, -1.0), w) + L::splat(1.0);
+    p * L::pow2i(k)
+}
+
+/// `e^x` as `(m, k)` with `e^x ≈ m · 2^k`, m in [0.7, 1.42], relative error ≤ 1.5e-5
+/// for x in [−2^20, 2^20] (clamped beyond).
+#[inline(always)]
+pub fn exp_split_fast<L: Lane>(x: L) -> (L, L) {
+    let x = x.clamp(L::splat(-1_048_576.0), L::splat(1_048_576.0));
+    let (k, r) = reduce_ln2(x);
+    ((r * r).mul_add(q2_signed(r, 1.0), r) + L::splat(1.0), k)
+}
+
+/// φ(x) = (1 − e^(−x))/x for x in [2^-60, +inf], relative error ≤ 3.5e-5 on [2^-60, 2^11];
+/// as `exprel_neg` outside.
+#[inline(always)]
+pub fn exprel_neg_fast<L: Lane>(x: L) -> L {
+    let xc = L::splat(30.0).min(x);
+    let k = (xc * L::splat(-LOG2E)).round();
+    let w = k.mul_add(L::splat(LN2), xc);
+    // e^(−w) − 1 = −w + w²·Q2(−w); e^(−x) = s·(1 + p) with s = 2^k.
+    let p = (w * w).mul_sub(q2_signed(w, -1.0), w);
+    let s = L::pow2i(k);
+    s.neg_mul_add(p, L::splat(1.0) - s) / x
+}
