@@ -34,6 +34,7 @@ fn report_rows_files_and_bounds() {
         "volume_spiky",
         "volume_gaussian",
         "mixed",
+        "framebuffer_pass",
     ];
     let methods = 5 + 3;
     assert_eq!(r.rows.len(), kernels.len() * 2 * methods);
@@ -80,6 +81,9 @@ fn report_rows_files_and_bounds() {
             // rays included) within 1e-4; extreme volume rays (cameras up to 1e6 radii
             // away, tangent rays) are ill-conditioned and only held to |ΔT| ≤ 0.5.
             let bound = match (k.starts_with("volume"), set) {
+                // The extreme frame's camera is 500 scale heights above the fog's base:
+                // κ ≈ 501, so τ's bound is 16·2^-24·501 ≈ 4.8e-4 relative.
+                (false, "extreme") if k == "framebuffer_pass" => 1e-4,
                 (false, _) => 1e-6,
                 (true, "typical") => 1e-4,
                 _ => 0.5,
@@ -90,8 +94,9 @@ fn report_rows_files_and_bounds() {
                 acc.t_abs.max
             );
             if !k.starts_with("volume") {
+                // L_in follows T (the same κ argument as above).
                 assert!(
-                    acc.lin_rel.max <= 1e-6,
+                    acc.lin_rel.max <= bound,
                     "{k} {set}: L_in {:e}",
                     acc.lin_rel.max
                 );

@@ -265,8 +265,10 @@ fn write(out: &mut OutCols<'_>, i: usize, tau: [f32; 3], colour: [f32; 3]) {
     }
 }
 
-/// Seed formulas for one ray.
+/// Seed formulas for one ray (the direction made unit, t scaled to match).
 fn seed_ray(m: &MediumF, o: Vec3, d: Vec3, t: f32) -> ([f32; 3], [f32; 3]) {
+    let l = d.length();
+    let (d, t) = (d / l, t * l);
     let cos = m.cos_sun(d);
     let mut tau = [0.0f32; 3];
     let mut num = [0.0f32; 3];
@@ -305,6 +307,8 @@ fn seed_ray(m: &MediumF, o: Vec3, d: Vec3, t: f32) -> ([f32; 3], [f32; 3]) {
 /// radiance Σ T(s_k) · Σ_media σ_t · colour · Δs (single scattering, the media's colours
 /// as in the kernel's model). Returns τ and the effective colour L_in / (1 − T).
 fn march_ray(m: &MediumF, o: Vec3, d: Vec3, t: f32, n: u32) -> ([f32; 3], [f32; 3]) {
+    let l = d.length();
+    let (d, t) = (d / l, t * l);
     let (s0, s1) = match m.march_sphere {
         Some(s) => match chord(s, o, d, t) {
             Some(c) => c,
@@ -390,6 +394,8 @@ pub fn reference_ray(desc: &SceneDesc, o: DVec3, d: DVec3, t: f64) -> [[f64; 3];
 pub struct Evaluators {
     pub desc: SceneDesc,
     pub accurate: Scene,
+    /// Whether the kernel's ray sets have unit directions (declared to the batch API).
+    pub unit: bool,
     pub medium: MediumF,
 }
 
@@ -400,6 +406,7 @@ impl Evaluators {
             medium: MediumF::new(&desc),
             desc,
             accurate,
+            unit: true,
         }
     }
 
@@ -412,7 +419,7 @@ impl Evaluators {
                     rays.o[0], rays.o[1], rays.o[2], rays.d[0], rays.d[1], rays.d[2], rays.t,
                 )
                 .expect("equal lengths")
-                .with_unit_directions(true);
+                .with_unit_directions(self.unit);
                 let [a, b, c, d, e, f, g, h, i] = out;
                 let o = Outputs {
                     tau: Some([a, b, c]),

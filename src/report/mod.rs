@@ -18,7 +18,9 @@ pub mod stability;
 pub use methods::{reference_ray, seed000_geo, Evaluators, Method};
 pub use rays::{RaySet, RaysRef};
 
-use crate::{Component, HeightFogLayer, Lighting, Phase, Profile, SceneDesc, Shape, Sun, Volume};
+use crate::{
+    Component, HeightFogLayer, Lighting, Phase, Profile, Scene, SceneDesc, Shape, Sun, Tier, Volume,
+};
 use glam::Vec3;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -123,6 +125,79 @@ pub struct Kernel {
     pub name: String,
     pub eval: Evaluators,
     pub sets: Vec<(&'static str, RaySet)>,
+    /// For the framebuffer pass: one frame per set (same order); the crate's 8-lane
+    /// methods are then timed through `Scene::fog_pass`, per pixel.
+    pub frames: Vec<Frame>,
+}
+
+/// A frame for the framebuffer pass: a camera and a linear-view depth buffer, with the
+/// pixel rays (as `Camera::pixel_ray` makes them) in the kernel's ray set.
+pub struct Frame {
+    pub camera: crate::pass::Camera,
+    pub width: usize,
+    pub height: usize,
+    pub depth: Vec<f32>,
+}
+
+fn gcd(a: u64, b: u64) -> u64 {
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
+    }
+}
+
+/// A camera over a ground plane y = 0 in the RGB height fog: the typical frame 2 above
+/// the ground looking at the horizon; the extreme one 5000 above (500 scale heights over
+/// the fog's base) looking down 30°, so that most pixels' rays cross the whole fog.
+fn pass_frame(n: usize, extreme: bool) -> (Frame, RaySet) {
+    use crate::pass::{Camera, DepthConvention};
+    let width = ((n as f64 * 16.0 / 9.0).sqrt().round() as usize).max(8);
+    let height = (n / width).max(1);
+    let (pos, fwd) = if extreme {
+        (Vec3::new(0.0, 5000.0, 0.0), Vec3::new(0.0, -0.5, -0.866))
+    } else {
+        (Vec3::new(0.0, 2.0, 0.0), Vec3::new(0.0, -0.05, -1.0))
+    };
+    let camera = Camera::perspective(pos, fwd, Vec3::Y, 1.0, width as f32 / height as f32)
+        .expect("valid camera");
+    let mut depth = vec![0.0f32; width * height];
+    let mut rays = RaySet::with_len(width * height);
+    let n_px = (width * height) as u64;
+    let stride = (7919..)
+        .find(|p| gcd(*p, n_px) == 1)
+        .expect("a coprime stride");
+    for y in 0..height {
+        for x in 0..width {
+            let i = y * width + x;
+            // Direction with forward component 1: the view depth of the ground is the
+            // ray parameter where y reaches 0.
+            let r = camera
+                .pixel_ray(x, y, width, height, 1.0, DepthConvention::LinearView)
+                .expect("pixel in frame");
+            depth[i] = if r.direction.y < 0.0 {
+                -pos.y / r.direction.y
+            } else {
+                f32::INFINITY
+            };
+            let r = camera
+                .pixel_ray(x, y, width, height, depth[i], DepthConvention::LinearView)
+                .expect("pixel in frame");
+            // Pixels in a scattered order (i·P mod N, P coprime to N), so that the first
+            // 4096 rays that the slow methods use cover the whole frame.
+            let j = (i as u64 * stride % (width * height) as u64) as usize;
+            rays.set(j, r.origin.to_array(), r.direction.to_array(), r.t);
+        }
+    }
+    (
+        Frame {
+            camera,
+            width,
+            height,
+            depth,
+        },
+        rays,
+    )
 }
 
 fn layer(b: f32, comps: Vec<Component>) -> HeightFogLayer {
@@ -191,6 +266,7 @@ pub fn kernels(n: usize) -> Vec<Kernel> {
             ("typical", rays::height_fog(n, false)),
             ("extreme", rays::height_fog(n, true)),
         ],
+        frames: vec![],
     };
     ks.push(hf(
         "height_fog_grey",
@@ -217,6 +293,7 @@ pub fn kernels(n: usize) -> Vec<Kernel> {
                 ("typical", rays::toward_sphere(n, false, c.to_array(), r)),
                 ("extreme", rays::toward_sphere(n, true, c.to_array(), r)),
             ],
+            frames: vec![],
         });
     }
     let vols = vec![
@@ -261,6 +338,22 @@ pub fn kernels(n: usize) -> Vec<Kernel> {
             ("typical", rays::landscape(n, false)),
             ("extreme", rays::landscape(n, true)),
         ],
+        frames: vec![],
+    });
+    let (ft, rt) = pass_frame(n, false);
+    let (fe, re) = pass_frame(n, true);
+    let mut eval = Evaluators::new(SceneDesc {
+        height_fog: vec![rgb_layer()],
+        lighting: lighting(),
+        ..SceneDesc::default()
+    });
+    // Pixel rays have a forward component of 1, not unit length.
+    eval.unit = false;
+    ks.push(Kernel {
+        name: "framebuffer_pass".into(),
+        eval,
+        sets: vec![("typical", rt), ("extreme", re)],
+        frames: vec![ft, fe],
     });
     ks
 }
@@ -307,6 +400,28 @@ pub fn tau_rel_err(got: f64, want: f64) -> f64 {
     } else {
         ((got - want).abs() / want).min(1e30)
     }
+}
+
+/// The framebuffer pass over `f` (an RGB colour buffer fogged in place), one thread and
+/// all threads: median times for the whole frame.
+fn pass_times(scene: &Scene, tier: Tier, f: &Frame, repeats: usize) -> (Duration, Duration) {
+    use crate::pass::{ColourBuffer, Depth};
+    let scene = scene.clone().with_tier(tier);
+    let mut colour = vec![0.5f32; f.width * f.height * 3];
+    let mut go = |par: bool| {
+        median_time(repeats, || {
+            let depth = Depth::linear_view(&f.depth);
+            let c = ColourBuffer::Rgb(&mut colour);
+            let r = if par {
+                scene.fog_pass(&f.camera, f.width, f.height, depth, c)
+            } else {
+                scene.fog_pass_single(&f.camera, f.width, f.height, depth, c)
+            };
+            r.expect("valid frame");
+        })
+    };
+    let t1 = go(false);
+    (t1, go(true))
 }
 
 /// Per-ray errors of `got` against the reference `want` ([τ, T, L_in, colour] per ray).
@@ -372,7 +487,7 @@ pub fn run(opts: &Options, progress: &mut dyn FnMut(&str)) -> Result<Report, Str
     let total = ks.len() * 2;
     let mut done = 0;
     for k in &ks {
-        for (set, rs) in &k.sets {
+        for (set_index, (set, rs)) in k.sets.iter().enumerate() {
             done += 1;
             progress(&format!("[{done}/{total}] {} ({set})", k.name));
             let reference: Vec<[[f64; 3]; 4]> = {
@@ -409,8 +524,21 @@ pub fn run(opts: &Options, progress: &mut dyn FnMut(&str)) -> Result<Report, Str
                 let mut out = Cols::new(n);
                 k.eval.apply(m, view, &mut out.view());
                 let (t_abs, tau_rel, lin_rel, nan_rays) = errors(&out, &reference[..n]);
-                let t1 = median_time(opts.repeats, || k.eval.apply(m, view, &mut out.view()));
-                let tm = median_time(opts.repeats, || k.eval.apply_par(m, view, out.view()));
+                let frame = k.frames.get(set_index);
+                let (t1, tm) = match (frame, m) {
+                    (Some(f), Method::AccurateX8 | Method::FastX8) => {
+                        let tier = if m == Method::FastX8 {
+                            Tier::Fast
+                        } else {
+                            Tier::Accurate
+                        };
+                        pass_times(&k.eval.accurate, tier, f, opts.repeats)
+                    }
+                    _ => (
+                        median_time(opts.repeats, || k.eval.apply(m, view, &mut out.view())),
+                        median_time(opts.repeats, || k.eval.apply_par(m, view, out.view())),
+                    ),
+                };
                 rows.push(Row {
                     kernel: k.name.clone(),
                     set,

@@ -17,7 +17,7 @@ pub struct RaysRef<'a> {
 }
 
 impl RaySet {
-    fn with_len(n: usize) -> RaySet {
+    pub(crate) fn with_len(n: usize) -> RaySet {
         RaySet {
             o: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
             d: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
@@ -41,7 +41,7 @@ impl RaySet {
         }
     }
 
-    fn set(&mut self, i: usize, o: [f32; 3], d: [f32; 3], t: f32) {
+    pub(crate) fn set(&mut self, i: usize, o: [f32; 3], d: [f32; 3], t: f32) {
         for c in 0..3 {
             self.o[c][i] = o[c];
             self.d[c][i] = d[c];
