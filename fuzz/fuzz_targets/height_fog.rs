@@ -44,7 +44,7 @@
 #![no_main]
 
 use analytic_fog::{
-    Component, HeightFogLayer, Lighting, Outputs, Phase, Rays, Scene, SceneDesc, Sun,
+    Component, HeightFogLayer, Lighting, Outputs, Phase, Rays, Scene, SceneDesc, Sun, Tier,
 };
 use glam::Vec3;
 use libfuzzer_sys::fuzz_target;
@@ -266,6 +266,11 @@ fuzz_target!(|data: &[u8]| {
     scene.evaluate_scalar(&rays, sc.outputs(all)).unwrap();
     let mut par = Out::new(n);
     scene.evaluate_par(&rays, par.outputs(all)).unwrap();
+    // The Fast tier: other bits, the same invariants.
+    let mut fast = Out::new(n);
+    scene
+        .evaluate_tier(Tier::Fast, &rays, fast.outputs(all))
+        .unwrap();
     // The same rays one position later (a different split into packets and tail).
     let mut shifted = Out::new(n.saturating_sub(1));
     scene
@@ -370,6 +375,19 @@ fuzz_target!(|data: &[u8]| {
                     "L_in = {li:e} (tau {tau:e}, T {tr:e}); {}",
                     ctx()
                 );
+                let (tau, tr, li) = (fast.get(ch, i), fast.get(3 + ch, i), fast.get(6 + ch, i));
+                assert!(tau >= 0.0, "Fast: tau = {tau:e}; {}", ctx());
+                assert!((0.0..=1.0).contains(&tr), "Fast: T = {tr:e}; {}", ctx());
+                assert!(
+                    tau != f32::INFINITY || tr == 0.0,
+                    "Fast: tau = inf, T = {tr:e}; {}",
+                    ctx()
+                );
+                assert!(
+                    !colour_ok || (li.is_finite() && li >= 0.0),
+                    "Fast: L_in = {li:e} (tau {tau:e}, T {tr:e}); {}",
+                    ctx()
+                );
             }
         }
         let invalid = (0..3).any(|c| reads_o(c) && !ray[c].is_finite())
@@ -386,6 +404,13 @@ fuzz_target!(|data: &[u8]| {
                 assert!(
                     v.is_nan(),
                     "invalid ray: {} = {v:e}, want NaN; {}",
+                    NAMES[k],
+                    ctx()
+                );
+                let v = fast.get(k, i);
+                assert!(
+                    v.is_nan(),
+                    "Fast, invalid ray: {} = {v:e}, want NaN; {}",
                     NAMES[k],
                     ctx()
                 );

@@ -473,10 +473,17 @@ impl Evaluators {
         }
     }
 
-    /// [`Self::apply`] split over rayon's threads in chunks of 4096 rays.
+    /// [`Self::apply`] split over rayon's threads (chunks of 4096 rays for the crate's
+    /// kernels, 256 for the others).
     pub fn apply_par(&self, method: Method, rays: RaysRef<'_>, out: OutCols<'_>) {
         let n = rays.len();
-        if n <= 4096 {
+        // Cache-sized chunks for the fast methods; small ones for the slow per-ray ones
+        // (so that their 4096-ray subsets are split over the threads too).
+        let chunk = match method {
+            Method::AccurateX8 | Method::FastX8 | Method::Scalar => 4096,
+            _ => 256,
+        };
+        if n <= chunk {
             let mut out = out;
             self.apply(method, rays, &mut out);
             return;

@@ -427,6 +427,14 @@ fn pass_times(scene: &Scene, tier: Tier, f: &Frame, repeats: usize) -> (Duration
 /// Per-ray errors of `got` against the reference `want` ([τ, T, L_in, colour] per ray).
 fn errors(got: &Cols, want: &[[[f64; 3]; 4]]) -> (Stats, Stats, Stats, usize) {
     let n = want.len();
+    let set_colour = [0, 1, 2].map(|ch| {
+        let m = want.iter().map(|w| w[3][ch].abs()).fold(0.0, f64::max);
+        if m > 0.0 {
+            m
+        } else {
+            1.0
+        }
+    });
     let (mut ta, mut tr, mut lr) = (
         Vec::with_capacity(n),
         Vec::with_capacity(n),
@@ -447,14 +455,12 @@ fn errors(got: &Cols, want: &[[[f64; 3]; 4]]) -> (Stats, Stats, Stats, usize) {
             a = a.max((t - w[1][ch]).abs());
             r = r.max(tau_rel_err(tau, w[0][ch]));
             // Relative to the fog colour: the reference's, or where the reference ray
-            // sees no medium (colour 0), the colour the method's own L_in implies.
-            let one_minus_t = 1.0 - t;
-            let own = if one_minus_t > 0.0 {
-                lin.abs() / one_minus_t
+            // sees no medium (colour 0), the largest fog colour of the ray set.
+            let scale = if w[3][ch].abs() > 0.0 {
+                w[3][ch].abs()
             } else {
-                0.0
+                set_colour[ch]
             };
-            let scale = w[3][ch].abs().max(own).max(1e-30);
             l = l.max(((lin - w[2][ch]).abs() / scale).min(1e30));
         }
         if nan {
@@ -605,8 +611,10 @@ fn march_matches(rows: &[Row]) -> Vec<Match> {
             let (a, b) = (marches[marches.len() - 2], marches[marches.len() - 1]);
             let (e1, e2) = (a.t_abs.max, b.t_abs.max);
             let p = (e1 / e2).ln() / (steps(b) / steps(a)).ln();
-            if p.is_finite() && p > 0.25 && e2 > 0.0 && e_a > 0.0 {
-                let n = steps(b) * (e2 / e_a).powf(1.0 / p);
+            let n = steps(b) * (e2 / e_a).powf(1.0 / p);
+            // Extrapolated only from a clear power law, and at most 100× beyond the
+            // largest step count measured.
+            if p.is_finite() && p > 0.5 && e2 > 0.0 && e_a > 0.0 && n <= 100.0 * steps(b) {
                 m.steps = Some(n);
                 m.extrapolated = true;
                 m.speedup = Some(b.ns_1t * (n / steps(b)) / acc.ns_1t);
@@ -687,7 +695,8 @@ pub fn table(r: &Report) -> String {
                     "{} {n:.0} steps, accurate_x8 {x:.0}x faster",
                     if m.extrapolated { "~" } else { "" }
                 ),
-                _ => "not reached (marching does not converge toward it)".into(),
+                _ => "not reached (no clear convergence toward it within 100x the steps measured)"
+                    .into(),
             }
         );
     }
