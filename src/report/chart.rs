@@ -123,6 +123,27 @@ fn error_time<DB: DrawingBackend>(
                 .label(x.method.name())
                 .legend(move |(a, b)| Circle::new((a, b), 4, c.filled()));
         }
+        // The marching step count at the Accurate tier's max |ΔT|, and the speedup.
+        if let Some(m) = r.matches.iter().find(|m| m.kernel == *k && m.set == set) {
+            let text = match (m.steps, m.speedup) {
+                (Some(n), Some(x)) => format!(
+                    "march {}{n:.0} steps for accurate's error: {x:.0}x its time",
+                    if m.extrapolated { "~" } else { "" }
+                ),
+                _ => "march: accurate's error not reached".to_string(),
+            };
+            ch.draw_series([Text::new(
+                text,
+                (x0 * 1.3, FLOOR * 4.0),
+                ("sans-serif", 11).into_font().color(&BLACK),
+            )])
+            .map_err(err("march label"))?;
+            ch.draw_series(LineSeries::new(
+                [(x0, clampf(m.accurate_err)), (x1, clampf(m.accurate_err))],
+                colour(Method::AccurateX8).mix(0.4).stroke_width(1),
+            ))
+            .map_err(err("accurate line"))?;
+        }
         ch.configure_series_labels()
             .position(SeriesLabelPosition::UpperRight)
             .label_font(("sans-serif", 10))

@@ -33,7 +33,7 @@ pub struct Options {
     /// Rays per set (typical and extreme); ray marching with 64 steps or more uses the
     /// first `min(rays, 4096)` of them.
     pub rays: usize,
-    /// Most timing repeats per measurement (the median is reported).
+    /// Fewest timing repeats per measurement (the median is reported; see `median_time`).
     pub repeats: usize,
     /// Marching step counts.
     pub march_steps: Vec<u32>,
@@ -371,15 +371,19 @@ impl Cols {
     }
 }
 
-/// The median of up to `repeats` timings of `f` (at least 3, stopping after ~0.25 s).
+/// The median of `repeats` timings of `f` or more: short measurements repeat until they
+/// have run 30 ms in all (at most 400 times), long ones stop after 3 once 0.25 s is spent.
 fn median_time(repeats: usize, mut f: impl FnMut()) -> Duration {
     let mut ts = vec![];
     let start = Instant::now();
-    while ts.len() < repeats.max(1) {
+    loop {
         let t0 = Instant::now();
         f();
         ts.push(t0.elapsed());
-        if ts.len() >= 3 && start.elapsed() > Duration::from_millis(250) {
+        let spent = start.elapsed();
+        let enough = ts.len() >= repeats.max(1) && spent >= Duration::from_millis(30);
+        let long = ts.len() >= 3 && spent > Duration::from_millis(250);
+        if enough || long || ts.len() >= 400 {
             break;
         }
     }

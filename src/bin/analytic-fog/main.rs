@@ -70,7 +70,8 @@ struct ReportArgs {
     #[arg(long, value_name = "N", default_value_t = 1 << 15,
           value_parser = clap::value_parser!(u32).range(64..=(1 << 24)))]
     rays: u32,
-    /// Timing repeats at most per measurement (the median is reported).
+    /// Fewest timing repeats per measurement (the median is reported; short measurements
+    /// repeat until 30 ms are spent).
     #[arg(long, value_name = "R", default_value_t = 7,
           value_parser = clap::value_parser!(u32).range(1..=1000))]
     repeats: u32,
