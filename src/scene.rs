@@ -436,6 +436,14 @@ impl Scene {
         self.tier
     }
 
+    /// This scene with the per-packet culling of fog volumes switched off: every volume is
+    /// evaluated for every packet. For tests and benchmarks (culling changes no result).
+    #[doc(hidden)]
+    pub fn without_culling(mut self) -> Scene {
+        self.volumes.no_culling = true;
+        self
+    }
+
     /// This scene with another default tier (for `evaluate`, `evaluate_par` and the
     /// framebuffer pass).
     pub fn with_tier(mut self, tier: Tier) -> Scene {

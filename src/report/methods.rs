@@ -377,7 +377,9 @@ pub fn reference_ray(desc: &SceneDesc, o: DVec3, d: DVec3, t: f64) -> [[f64; 3];
         let colour = if h.tau[ch].is_infinite() {
             h.colour[ch]
         } else if tau > 0.0 {
-            (tv[ch] * cv[ch] + h.tau[ch] * h.colour[ch]) / tau
+            // As weights, so that τ near the f64 range does not overflow the products.
+            let wv = tv[ch] / tau;
+            wv * cv[ch] + (1.0 - wv) * h.colour[ch]
         } else {
             0.0
         };

@@ -460,11 +460,9 @@ fn errors(got: &Cols, want: &[[[f64; 3]; 4]]) -> (Stats, Stats, Stats, usize) {
             r = r.max(tau_rel_err(tau, w[0][ch]));
             // Relative to the fog colour: the reference's, or where the reference ray
             // sees no medium (colour 0), the largest fog colour of the ray set.
-            let scale = if w[3][ch].abs() > 0.0 {
-                w[3][ch].abs()
-            } else {
-                set_colour[ch]
-            };
+            // (Floored at 1e-6 of that: a reference colour that is tiny but not 0 comes
+            // from a degenerate mix, not from the scene's light.)
+            let scale = w[3][ch].abs().max(1e-6 * set_colour[ch]);
             l = l.max(((lin - w[2][ch]).abs() / scale).min(1e30));
         }
         if nan {

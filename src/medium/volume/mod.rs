@@ -233,6 +233,9 @@ pub(crate) struct VolumePlan {
     pub colour_const: [f32; 3],
     /// For a non-isotropic phase lit by the sun: the phase and albedo · E_sun · T_sun.
     pub colour_sun: Option<(Phase, [f32; 3])>,
+    /// The radius of a sphere about `center` that contains the shape (the Frobenius norm
+    /// of M, times √3 for a box), rounded up: the per-packet culling test.
+    pub bound_radius: f32,
 }
 
 /// The compiled volumes of a scene.
@@ -240,6 +243,9 @@ pub(crate) struct VolumePlan {
 pub(crate) struct VolumeSet {
     pub additive: Vec<VolumePlan>,
     pub cuts: Vec<VolumePlan>,
+    /// Skip, per packet, the volumes that no ray of the packet can touch (on unless
+    /// `Scene::without_culling`; it changes no result).
+    pub no_culling: bool,
 }
 
 impl VolumeSet {
@@ -427,7 +433,18 @@ pub(crate) fn compile(
         let inv64 = aff.m.inverse();
         let inv = [0, 1, 2].map(|r| [0, 1, 2].map(|c| inv64.col(c)[r] as f32));
         let fwd = [0, 1, 2].map(|r| [0, 1, 2].map(|c| aff.m.col(c)[r] as f32));
+        let frob = (0..3)
+            .map(|c| aff.m.col(c).length_squared())
+            .sum::<f64>()
+            .sqrt();
+        let bound = match aff.kind {
+            Kind::Ball => frob,
+            Kind::Cube => frob * 3f64.sqrt(),
+        };
+        // Rounded up to f32 and by a margin of its own.
+        let bound_radius = (bound * (1.0 + 1e-6)) as f32 * (1.0 + 1e-6);
         let plan_geom = |sigma: [f32; 3], colour_const, colour_sun| VolumePlan {
+            bound_radius,
             kind: aff.kind,
             profile: v.profile,
             edge_fade: aff.edge_fade as f32,

@@ -377,6 +377,26 @@ fn volume_depth<L: Lane>(set: &VolumeSet, k: usize, o: &[L; 3], dir: &[L; 3], t_
 /// directions (zero for a zero direction); `t_w`: segment length in world units (may be
 /// +inf); invalid rays get τ = NaN; `sun`: toward the sun, when
 /// some colour depends on the view direction and radiance is wanted.
+/// Per-lane culling test: whether the segment o + s·dir, s in [0, t_w] (dir unit; lanes
+/// whose dir is not are always kept) may come within the volume's bounding sphere. Conservative: the distance is computed in
+/// f32, so the sphere is widened by 1e-5 of the coordinates' magnitudes (far more than
+/// their rounding) and by 1e-3 of its radius; NaN lanes (invalid rays) give false, and
+/// their outputs are NaN regardless.
+#[inline(always)]
+fn may_touch<L: Lane>(plan: &VolumePlan, o: &[L; 3], dir: &[L; 3], t_w: L) -> L::Mask {
+    let q = [0, 1, 2].map(|c| L::splat(plan.center[c]) - o[c]);
+    let along = q[0] * dir[0] + q[1] * dir[1] + q[2] * dir[2];
+    let s = along.max(L::splat(0.0)).min(t_w);
+    let p = [0, 1, 2].map(|c| s.neg_mul_add(dir[c], q[c]));
+    let d2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
+    let mag = q[0].abs() + q[1].abs() + q[2].abs() + o[0].abs() + o[1].abs() + o[2].abs();
+    let r = L::splat(plan.bound_radius * 1.001) + mag * L::splat(1e-5);
+    // A batch declared unit-length whose directions are not is a broken promise whose
+    // result is unspecified, but x8 and scalar must still agree: never cull such lanes.
+    let dd = dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2];
+    d2.le(r * r) | (dd - L::splat(1.0)).abs().gt(L::splat(1e-3))
+}
+
 #[inline(never)] // one copy per (L, UNIT, WANT_L), not one per kernel variant: keeps compile time sane
 pub(crate) fn eval_volumes<L: Lane, const UNIT: bool, const WANT_L: bool>(
     scene: &Scene,
@@ -415,6 +435,11 @@ pub(crate) fn eval_volumes<L: Lane, const UNIT: bool, const WANT_L: bool>(
     let cap = L::splat(1e30);
     let t_w = t_w.min(L::splat(f32::MAX));
     for (k, plan) in set.additive.iter().enumerate() {
+        if !set.no_culling && !L::any(may_touch(plan, &o, &dir, t_w)) {
+            // No ray of the packet comes near: its depth would be exactly 0 in every lane
+            // (so 0 · colour adds nothing either).
+            continue;
+        }
         // Capped so that a zero extinction channel gives 0, never inf · 0.
         let g = volume_depth(set, k, &o, &dir, t_w).min(L::splat(f32::MAX));
         let mut c = plan.colour_const.map(L::splat);
