@@ -1005,3 +1005,49 @@ fn npy_late_error_leaves_no_output() {
         );
     }
 }
+
+/// `render`: each shipped demo scene gives a PNG of the requested size (read back by the
+/// PNG signature and the IHDR chunk), and the time of the fog pass on stderr; a bad
+/// render scene is one line naming the file.
+#[test]
+fn render_demo_scenes() {
+    let dir = workdir("render");
+    let scenes = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/render");
+    for name in ["valley_sunrise.json", "low_fog_backlit.json"] {
+        let out = dir.join(format!("{name}.png"));
+        let o = run(
+            &dir,
+            &[
+                "render",
+                "--scene",
+                &format!("{scenes}/{name}"),
+                "--width",
+                "67",
+                "--height",
+                "29",
+                "--out",
+                out.to_str().unwrap(),
+            ],
+        );
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        assert!(stderr(&o).contains("fog pass"), "{}", stderr(&o));
+        let png = std::fs::read(&out).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        assert_eq!(&png[12..16], b"IHDR");
+        let be = |i: usize| u32::from_be_bytes(png[i..i + 4].try_into().unwrap());
+        assert_eq!((be(16), be(20)), (67, 29), "{name}: size");
+    }
+    std::fs::write(
+        dir.join("bad.json"),
+        br#"{"fog": {}, "camera": {"position": [0,1,0], "look_at": [0,1,-1]}, "colour": 1}"#,
+    )
+    .unwrap();
+    let o = run(&dir, &["render", "--scene", "bad.json", "--out", "x.png"]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(
+        e.starts_with("error: bad.json:1:") && e.contains("colour"),
+        "{e}"
+    );
+    assert_eq!(e.lines().count(), 1, "{e}");
+}

@@ -28,6 +28,7 @@
 
 mod csv;
 mod npy;
+mod render;
 mod scene;
 
 use analytic_fog::{simd_level, Outputs, Rays, Scene};
@@ -53,11 +54,36 @@ enum Cmd {
     /// the f64 reference, the seeds' formulas, ray marching), with the stability sweeps:
     /// a table on stdout; report.json, report.csv and SVG/PNG charts in --out-dir.
     Report(ReportArgs),
+    /// Render a demo image: a small ray caster (terrain or ground plane, spheres, sky)
+    /// fogged by the framebuffer pass, written as PNG; prints the fog pass's time.
+    Render(RenderArgs),
     /// Evaluate a rays file (CSV or .npy) against a scene: optical depth, transmittance and
     /// in-scattered radiance per RGB channel, one output row per ray.
     Eval(EvalArgs),
     /// Print the version, the SIMD level compiled in and the number of threads.
     Info,
+}
+
+#[derive(Args, Debug)]
+struct RenderArgs {
+    /// Render scene (JSON): {"fog": <scene>, "camera": {...}, "sky", "terrain", "spheres",
+    /// "exposure"}; see examples/render/.
+    #[arg(long, value_name = "S.json")]
+    scene: PathBuf,
+    /// Image width in pixels.
+    #[arg(long, value_name = "W", default_value_t = 960,
+          value_parser = clap::value_parser!(u32).range(1..=16384))]
+    width: u32,
+    /// Image height in pixels.
+    #[arg(long, value_name = "H", default_value_t = 540,
+          value_parser = clap::value_parser!(u32).range(1..=16384))]
+    height: u32,
+    /// Output PNG.
+    #[arg(long, value_name = "image.png")]
+    out: PathBuf,
+    /// Print nothing on success.
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -127,6 +153,7 @@ fn main() -> ExitCode {
         }
         Cmd::Eval(args) => eval(&args),
         Cmd::Report(args) => report(&args),
+        Cmd::Render(a) => render::render(&a.scene, a.width, a.height, &a.out, a.quiet),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
