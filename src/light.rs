@@ -20,24 +20,31 @@ pub enum Phase {
     Rayleigh,
     /// p = (1 − g²) / (4π · (1 + g² − 2g cos θ)^{3/2}), with −1 < g < 1.
     HenyeyGreenstein(f32),
+    /// Cornette–Shanks: p = 3/(8π) · (1 − g²)/(2 + g²) · (1 + cos²θ) /
+    /// (1 + g² − 2g cos θ)^{3/2}, with −1 < g < 1 (Henyey–Greenstein's shape with
+    /// Rayleigh's (1 + cos²θ), normalized; a better fit of Mie scattering by haze).
+    CornetteShanks(f32),
 }
 
 impl Phase {
     pub(crate) fn validate(&self, field: &str) -> Result<(), SceneError> {
-        if let Phase::HenyeyGreenstein(g) = *self {
-            if !g.is_finite() {
-                return Err(SceneError::NonFinite {
-                    field: format!("{field}.henyey_greenstein"),
-                    value: g,
-                });
-            }
-            if !(g > -1.0 && g < 1.0) {
-                return Err(SceneError::OutOfRange {
-                    field: format!("{field}.henyey_greenstein"),
-                    value: g,
-                    range: "(-1, 1)",
-                });
-            }
+        let (g, name) = match *self {
+            Phase::HenyeyGreenstein(g) => (g, "henyey_greenstein"),
+            Phase::CornetteShanks(g) => (g, "cornette_shanks"),
+            _ => return Ok(()),
+        };
+        if !g.is_finite() {
+            return Err(SceneError::NonFinite {
+                field: format!("{field}.{name}"),
+                value: g,
+            });
+        }
+        if !(g > -1.0 && g < 1.0) {
+            return Err(SceneError::OutOfRange {
+                field: format!("{field}.{name}"),
+                value: g,
+                range: "(-1, 1)",
+            });
         }
         Ok(())
     }
@@ -51,6 +58,11 @@ impl Phase {
             Phase::HenyeyGreenstein(g) => {
                 let g = g as f64;
                 (1.0 - g * g) / (4.0 * PI * (1.0 + g * g - 2.0 * g * cos_theta).powf(1.5))
+            }
+            Phase::CornetteShanks(g) => {
+                let g = g as f64;
+                3.0 / (8.0 * PI) * (1.0 - g * g) / (2.0 + g * g) * (1.0 + cos_theta * cos_theta)
+                    / (1.0 + g * g - 2.0 * g * cos_theta).powf(1.5)
             }
         }
     }
@@ -72,22 +84,34 @@ impl Phase {
                 c.mul_add(c, L::splat(1.0)) * L::splat(3.0 / (16.0 * PI))
             }
             Phase::HenyeyGreenstein(g) => {
-                let (base, gg, sign) = if g >= 0.0 {
-                    ((1.0 - g) * (1.0 - g), g, -1.0)
-                } else {
-                    ((1.0 + g) * (1.0 + g), -g, 1.0)
-                };
-                // |v ∓ s|²
-                let w0 = v[0] + L::splat(sign * s[0]);
-                let w1 = v[1] + L::splat(sign * s[1]);
-                let w2 = v[2] + L::splat(sign * s[2]);
-                let w = w0.mul_add(w0, w1.mul_add(w1, w2 * w2));
-                let q = w.mul_add(L::splat(gg), L::splat(base));
                 let num = (1.0 - g) * (1.0 + g) / (4.0 * PI);
-                L::splat(num) / (q * q.sqrt())
+                L::splat(num) / hg_denominator(g, v, s)
+            }
+            Phase::CornetteShanks(g) => {
+                let num = 3.0 / (8.0 * PI) * (1.0 - g) * (1.0 + g) / (2.0 + g * g);
+                let c = dot3(v, s);
+                (L::splat(num) * c.mul_add(c, L::splat(1.0))) / hg_denominator(g, v, s)
             }
         }
     }
+}
+
+/// (1 + g² − 2g·cos θ)^{3/2} for unit `v` and `s`, without cancellation (see
+/// [`Phase::eval`]).
+#[inline(always)]
+fn hg_denominator<L: Lane>(g: f32, v: [L; 3], s: [f32; 3]) -> L {
+    let (base, gg, sign) = if g >= 0.0 {
+        ((1.0 - g) * (1.0 - g), g, -1.0)
+    } else {
+        ((1.0 + g) * (1.0 + g), -g, 1.0)
+    };
+    // |v ∓ s|²
+    let w0 = v[0] + L::splat(sign * s[0]);
+    let w1 = v[1] + L::splat(sign * s[1]);
+    let w2 = v[2] + L::splat(sign * s[2]);
+    let w = w0.mul_add(w0, w1.mul_add(w1, w2 * w2));
+    let q = w.mul_add(L::splat(gg), L::splat(base));
+    q * q.sqrt()
 }
 
 #[inline(always)]

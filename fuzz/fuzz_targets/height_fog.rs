@@ -104,10 +104,10 @@ fn scene_from(inp: &mut Input) -> SceneDesc {
             let absorption = inp.coeff3(raw);
             let sel = inp.byte();
             let g = inp.f32();
-            let phase = match sel % 3 {
+            let phase = match sel % 4 {
                 0 => Phase::Isotropic,
                 1 => Phase::Rayleigh,
-                _ => {
+                s => {
                     // Any valid g, ±0.99999994 included; raw bits when `raw`.
                     let g = if raw || g.abs() < 1.0 {
                         g
@@ -115,7 +115,11 @@ fn scene_from(inp: &mut Input) -> SceneDesc {
                         let v = (g.to_bits() & 0xff_ffff) as f32 / 16_777_216.0;
                         v.copysign(g)
                     };
-                    Phase::HenyeyGreenstein(g)
+                    if s == 2 {
+                        Phase::HenyeyGreenstein(g)
+                    } else {
+                        Phase::CornetteShanks(g)
+                    }
                 }
             };
             components.push(Component {
@@ -172,6 +176,11 @@ fn max_fog_colour(desc: &SceneDesc) -> f64 {
                     Phase::HenyeyGreenstein(g) => {
                         let g = (g as f64).abs();
                         (1.0 + g) / (4.0 * PI * (1.0 - g) * (1.0 - g))
+                    }
+                    Phase::CornetteShanks(g) => {
+                        // At cos θ = ±1: both (1 + cos²θ) and the HG part peak there.
+                        let g = (g as f64).abs();
+                        3.0 * (1.0 + g) / (4.0 * PI * (2.0 + g * g) * (1.0 - g) * (1.0 - g))
                     }
                 };
                 let esun = desc

@@ -105,10 +105,12 @@ fn scene_from(inp: &mut Input) -> SceneDesc {
             profile
         };
         let g = inp.f32();
-        let phase = match (sel >> 3) % 3 {
+        let g = if raw { g } else { g.abs().fract() * 0.99 };
+        let phase = match (sel >> 3) % 4 {
             0 => Phase::Isotropic,
             1 => Phase::Rayleigh,
-            _ => Phase::HenyeyGreenstein(if raw { g } else { g.abs().fract() * 0.99 }),
+            2 => Phase::HenyeyGreenstein(g),
+            _ => Phase::CornetteShanks(g),
         };
         volumes.push(Volume {
             shape,
@@ -203,7 +205,14 @@ fuzz_target!(|data: &[u8]| {
     let par = run(&scene, &rays, 2, n);
     for k in 0..9 {
         for i in 0..n {
-            assert!(same(x8[k][i], sc[k][i]), "x8 vs scalar, output {k} ray {i}");
+            assert!(
+                same(x8[k][i], sc[k][i]),
+                "x8 vs scalar, output {k} ray {i}: {:e} vs {:e}; ray {:?} unit {unit}; {:?}",
+                x8[k][i],
+                sc[k][i],
+                [ox[i], oy[i], oz[i], dx[i], dy[i], dz[i], t[i]],
+                scene.desc().volumes
+            );
             assert!(same(x8[k][i], par[k][i]), "x8 vs par, output {k} ray {i}");
         }
     }

@@ -214,6 +214,10 @@ fn phase_f32(p: Phase, cos: f32) -> f32 {
         Phase::HenyeyGreenstein(g) => {
             (1.0 - g * g) / (4.0 * PI * (1.0 + g * g - 2.0 * g * cos).powf(1.5))
         }
+        Phase::CornetteShanks(g) => {
+            3.0 / (8.0 * PI) * (1.0 - g * g) / (2.0 + g * g) * (1.0 + cos * cos)
+                / (1.0 + g * g - 2.0 * g * cos).powf(1.5)
+        }
     }
 }
 

@@ -244,7 +244,8 @@ pub(crate) struct VolumeSet {
     pub additive: Vec<VolumePlan>,
     pub cuts: Vec<VolumePlan>,
     /// Skip, per packet, the volumes that no ray of the packet can touch (on unless
-    /// `Scene::without_culling`; it changes no result).
+    /// `Scene::without_culling`; it changes no result: a lane that cannot touch a volume
+    /// gets exactly 0 from it either way).
     pub no_culling: bool,
 }
 

@@ -435,13 +435,17 @@ pub(crate) fn eval_volumes<L: Lane, const UNIT: bool, const WANT_L: bool>(
     let cap = L::splat(1e30);
     let t_w = t_w.min(L::splat(f32::MAX));
     for (k, plan) in set.additive.iter().enumerate() {
-        if !set.no_culling && !L::any(may_touch(plan, &o, &dir, t_w)) {
-            // No ray of the packet comes near: its depth would be exactly 0 in every lane
-            // (so 0 · colour adds nothing either).
+        // Lanes whose segment cannot come near the volume get a depth of exactly 0 (the
+        // closed forms could leave a rounding residue, e.g. ~1e-43, which a huge
+        // extinction makes visible); a packet with no such lane skips the volume, which
+        // then changes no result (0 · colour adds nothing either).
+        let near = may_touch(plan, &o, &dir, t_w);
+        if !set.no_culling && !L::any(near) {
             continue;
         }
         // Capped so that a zero extinction channel gives 0, never inf · 0.
         let g = volume_depth(set, k, &o, &dir, t_w).min(L::splat(f32::MAX));
+        let g = L::select(near, g, zero);
         let mut c = plan.colour_const.map(L::splat);
         if WANT_L {
             if let (Some(s), Some((phase, k))) = (sun, &plan.colour_sun) {
