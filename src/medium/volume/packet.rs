@@ -378,23 +378,47 @@ fn volume_depth<L: Lane>(set: &VolumeSet, k: usize, o: &[L; 3], dir: &[L; 3], t_
 /// +inf); invalid rays get τ = NaN; `sun`: toward the sun, when
 /// some colour depends on the view direction and radiance is wanted.
 /// Per-lane culling test: whether the segment o + s·dir, s in [0, t_w] (dir unit; lanes
-/// whose dir is not are always kept) may come within the volume's bounding sphere. Conservative: the distance is computed in
-/// f32, so the sphere is widened by 1e-5 of the coordinates' magnitudes (far more than
-/// their rounding) and by 1e-3 of its radius; NaN lanes (invalid rays) give false, and
+/// whose dir is not are always kept) may come within the volume's bounding sphere.
+/// Conservative: the distance is computed in f32, so the sphere is widened by 1e-5 of the
+/// coordinates' magnitudes (far more than their rounding) and by 1e-3 of its radius; NaN lanes (invalid rays) give false, and
 /// their outputs are NaN regardless.
 #[inline(always)]
-fn may_touch<L: Lane>(plan: &VolumePlan, o: &[L; 3], dir: &[L; 3], t_w: L) -> L::Mask {
+fn may_touch<L: Lane>(
+    plan: &VolumePlan,
+    o: &[L; 3],
+    dir: &[L; 3],
+    t_w: L,
+    packet: &CullPacket<L>,
+) -> L::Mask {
     let q = [0, 1, 2].map(|c| L::splat(plan.center[c]) - o[c]);
     let along = q[0] * dir[0] + q[1] * dir[1] + q[2] * dir[2];
     let s = along.max(L::splat(0.0)).min(t_w);
     let p = [0, 1, 2].map(|c| s.neg_mul_add(dir[c], q[c]));
     let d2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
-    let mag = q[0].abs() + q[1].abs() + q[2].abs() + o[0].abs() + o[1].abs() + o[2].abs();
+    let mag = q[0].abs() + q[1].abs() + q[2].abs() + packet.o_mag;
     let r = L::splat(plan.bound_radius * 1.001) + mag * L::splat(1e-5);
-    // A batch declared unit-length whose directions are not is a broken promise whose
-    // result is unspecified, but x8 and scalar must still agree: never cull such lanes.
-    let dd = dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2];
-    d2.le(r * r) | (dd - L::splat(1.0)).abs().gt(L::splat(1e-3))
+    d2.le(r * r) | packet.not_unit
+}
+
+/// What [`may_touch`] needs of a packet that does not depend on the volume.
+struct CullPacket<L: Lane> {
+    /// |o|₁, for the margin.
+    o_mag: L,
+    /// Lanes whose direction is not unit length: a batch declared unit whose directions
+    /// are not is a broken promise with an unspecified result, but x8 and scalar must
+    /// still agree, so such lanes are never culled.
+    not_unit: L::Mask,
+}
+
+impl<L: Lane> CullPacket<L> {
+    #[inline(always)]
+    fn new(o: &[L; 3], dir: &[L; 3]) -> Self {
+        let dd = dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2];
+        CullPacket {
+            o_mag: o[0].abs() + o[1].abs() + o[2].abs(),
+            not_unit: (dd - L::splat(1.0)).abs().gt(L::splat(1e-3)),
+        }
+    }
 }
 
 #[inline(never)] // one copy per (L, UNIT, WANT_L), not one per kernel variant: keeps compile time sane
@@ -434,12 +458,13 @@ pub(crate) fn eval_volumes<L: Lane, const UNIT: bool, const WANT_L: bool>(
     let mut den = [zero; 3];
     let cap = L::splat(1e30);
     let t_w = t_w.min(L::splat(f32::MAX));
+    let cull = CullPacket::new(&o, &dir);
     for (k, plan) in set.additive.iter().enumerate() {
         // Lanes whose segment cannot come near the volume get a depth of exactly 0 (the
         // closed forms could leave a rounding residue, e.g. ~1e-43, which a huge
         // extinction makes visible); a packet with no such lane skips the volume, which
         // then changes no result (0 · colour adds nothing either).
-        let near = may_touch(plan, &o, &dir, t_w);
+        let near = may_touch(plan, &o, &dir, t_w, &cull);
         if !set.no_culling && !L::any(near) {
             continue;
         }
