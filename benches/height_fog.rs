@@ -77,6 +77,7 @@ fn scene(full: bool) -> Scene {
         height_fog: vec![HeightFogLayer {
             base_height: 0.0,
             falloff: B,
+            emission: glam::Vec3::ZERO,
             components: vec![Component {
                 scattering: Vec3::from_array(BETA),
                 absorption: Vec3::ZERO,

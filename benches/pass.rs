@@ -40,6 +40,7 @@ fn scene() -> Scene {
         height_fog: vec![HeightFogLayer {
             base_height: H0,
             falloff: B,
+            emission: glam::Vec3::ZERO,
             components: vec![Component {
                 scattering: SCATTERING,
                 absorption: Vec3::ZERO,

@@ -45,6 +45,7 @@ fn main() {
         height_fog: vec![HeightFogLayer {
             base_height: 0.0,
             falloff: 0.1,
+            emission: glam::Vec3::ZERO,
             components: vec![Component {
                 scattering: Vec3::new(0.02, 0.03, 0.05),
                 absorption: Vec3::ZERO,

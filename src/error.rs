@@ -20,6 +20,11 @@ pub enum SceneError {
     },
     /// A list that must not be empty is empty.
     Empty { field: String },
+    /// A field that needs another one that is not set (e.g. a lobe without a sun).
+    Requires {
+        field: String,
+        requires: &'static str,
+    },
 }
 
 impl fmt::Display for SceneError {
@@ -40,6 +45,23 @@ impl fmt::Display for SceneError {
                 range,
             } => write!(f, "{field}: must be in {range}, got {value}"),
             SceneError::Empty { field } => write!(f, "{field}: must not be empty"),
+            SceneError::Requires { field, requires } => {
+                write!(f, "{field}: needs {requires}")
+            }
+        }
+    }
+}
+
+impl SceneError {
+    /// The path of the offending field (`height_fog[0].falloff`, `limits.max_opacity`).
+    pub fn field(&self) -> &str {
+        match self {
+            SceneError::NonFinite { field, .. }
+            | SceneError::Negative { field, .. }
+            | SceneError::ZeroVector { field }
+            | SceneError::OutOfRange { field, .. }
+            | SceneError::Empty { field }
+            | SceneError::Requires { field, .. } => field,
         }
     }
 }

@@ -8,6 +8,7 @@
 //! that work a call does not need is compiled out rather than skipped at run time.
 
 use crate::math::{exp_neg, exp_neg_fast, ldexp, pow2_pair, Lane};
+use crate::medium::distance::DistancePlan;
 use crate::medium::height_fog::{direction_norm, layer_depth, RayGeom, TWO_M64};
 use crate::medium::volume::clamp_colour;
 use crate::ray::{Outputs, Rays};
@@ -116,7 +117,7 @@ fn packet_geometry<L: Lane, const AXIS: usize, const UNIT: bool>(
 /// [`eval_packet`] handles inline; everything else goes to [`eval_general`].
 #[inline(always)]
 fn is_single_layer(scene: &Scene) -> bool {
-    scene.layers.len() == 1 && scene.volumes.is_empty()
+    scene.layers.len() == 1 && scene.volumes.is_empty() && !scene.has_controls()
 }
 
 /// One height fog layer (see [`is_single_layer`]), inlined into the batch loop.
@@ -198,14 +199,33 @@ pub(crate) fn eval_packet<
 /// from the mantissa/exponent pairs relative to the largest exponent, so they stay finite
 /// where τ itself saturates. (No allocation: the second pass recomputes each layer's
 /// depth.)
-#[inline(never)]
-#[allow(clippy::too_many_arguments)]
+///
+/// All of the scene's fog volumes are candidates; see [`eval_general_with`].
+#[inline(always)]
 fn eval_general<L: Lane, const AXIS: usize, const UNIT: bool>(
     scene: &Scene,
     p: PacketIn<L>,
     want_t: bool,
     want_l: bool,
     fast: bool,
+) -> PacketOut<L> {
+    eval_general_with::<L, AXIS, UNIT>(scene, p, want_t, want_l, fast, None)
+}
+
+/// [`eval_general`] with the additive fog volumes to consider: `volumes` lists indices
+/// into the scene's additive volumes in increasing order (`None`: all). The framebuffer
+/// pass passes each tile's candidates (`crate::pass`); a volume may be left out only if
+/// the per-packet test rejects it for every ray the list is used with, so that the result
+/// is the same bits as with `None`.
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
+    scene: &Scene,
+    p: PacketIn<L>,
+    want_t: bool,
+    want_l: bool,
+    fast: bool,
+    volumes: Option<&[u32]>,
 ) -> PacketOut<L> {
     let p = &p;
     // The tier (see `Tier`): a predictable branch per call.
@@ -218,9 +238,49 @@ fn eval_general<L: Lane, const AXIS: usize, const UNIT: bool>(
     };
     let exp_neg = |x: L| if fast { exp_neg_fast(x) } else { exp_neg(x) };
     let (geom, norm, dir, sun) = packet_geometry::<L, AXIS, UNIT>(scene, p, want_l);
-    let (geom, dir) = (&geom, &dir);
     let zero = L::splat(0.0);
     let one = L::splat(1.0);
+    // Start and cutoff distances (`FogLimits`): every medium sees the ray cut to
+    // [start, min(t·|d|, cutoff)], from the start point along the unit direction.
+    let limits = &scene.limits;
+    let cut;
+    let (p, geom, norm) = if limits.interval {
+        let dlen = ldexp(norm.0, norm.1);
+        let dist = L::select(p.t.eq(zero) | dlen.eq(zero), zero, p.t * dlen);
+        let start = L::splat(limits.start);
+        let len = (dist.min(L::splat(limits.cutoff)) - start).max(zero);
+        // NaN, as without limits, for t NaN or negative and for a non-finite direction.
+        #[allow(clippy::eq_op)] // x − x is NaN exactly when x is not finite
+        let len = L::select(p.t.ge(zero), len, L::splat(f32::NAN)) + (norm.0 - norm.0);
+        // The height of the start point from the ray's own height (y may be ±inf where
+        // dot(o, up) overflows) and at 2^-64 scale: the start point itself may lie beyond
+        // the f32 range (found by fuzz/height_fog: an origin near f32::MAX moved by a
+        // start distance of 2.6e36 overflowed to +inf and gave τ = NaN).
+        let u = if AXIS < 3 {
+            dir[AXIS]
+        } else {
+            crate::light::dot3(dir, scene.up.to_array())
+        };
+        let y = u.mul_add(start, geom.y);
+        let y_s = u.mul_add(L::splat(limits.start * TWO_M64), geom.y_s);
+        let g = RayGeom::new(y, y_s, u, zero, len, (one, zero));
+        // The volumes take the cut ray itself. Where the start point leaves the f32 range
+        // the ray moves away from every volume in that coordinate (it overflowed because
+        // o and d agree in sign there, by more than any volume's extent): an empty
+        // segment from the original origin. An invalid origin stays invalid (NaN).
+        let oc = [0, 1, 2].map(|c| dir[c].mul_add(start, p.o[c]));
+        #[allow(clippy::eq_op)]
+        let fin = (oc[0] - oc[0]).eq(zero) & (oc[1] - oc[1]).eq(zero) & (oc[2] - oc[2]).eq(zero);
+        cut = PacketIn {
+            o: [0, 1, 2].map(|c| L::select(fin, oc[c], p.o[c])),
+            d: dir,
+            t: L::select(fin, len, zero),
+        };
+        (&cut, g, (one, zero))
+    } else {
+        (p, geom, norm)
+    };
+    let (geom, dir) = (&geom, &dir);
     let mut out = PacketOut {
         tau: [zero; 3],
         trans: [one; 3],
@@ -250,11 +310,11 @@ fn eval_general<L: Lane, const AXIS: usize, const UNIT: bool>(
     } else {
         let v = if want_l {
             crate::medium::volume::eval_volumes::<L, UNIT, true>(
-                scene, &p.o, &p.d, p.t, norm, dir, sun,
+                scene, &p.o, &p.d, p.t, norm, dir, sun, volumes,
             )
         } else {
             crate::medium::volume::eval_volumes::<L, UNIT, false>(
-                scene, &p.o, &p.d, p.t, norm, dir, sun,
+                scene, &p.o, &p.d, p.t, norm, dir, sun, volumes,
             )
         };
         for ch in 0..3 {
@@ -262,11 +322,34 @@ fn eval_general<L: Lane, const AXIS: usize, const UNIT: bool>(
         }
         Some(v)
     };
+    // Distance fog over the same interval: its length from the geometry (mantissa and
+    // exponent, t = +∞ included; NaN for an invalid ray).
+    let tau_hv = out.tau;
+    let dist_fog = scene.distance.as_ref().map(|f| {
+        let len_m = geom.n_m * geom.t_m + geom.guard;
+        let len_e = geom.n_e + geom.t_e;
+        let len_f = ldexp(len_m, len_e);
+        let s_a = if limits.interval { limits.start } else { 0.0 };
+        let d = crate::medium::distance::depth(f, s_a, len_m, len_e, len_f, exp_neg);
+        for ch in 0..3 {
+            out.tau[ch] = out.tau[ch] + d.tau[ch];
+        }
+        (f, d, len_f)
+    });
     if want_t || want_l {
         for ch in 0..3 {
-            out.trans[ch] = exp_neg(out.tau[ch]);
+            out.trans[ch] = match &dist_fog {
+                // Linear fog's T is Bevy's ratio itself (no logarithm round trip).
+                Some((f, d, _)) if f.is_linear() => exp_neg(tau_hv[ch]) * d.trans[ch],
+                _ => exp_neg(out.tau[ch]),
+            };
         }
     }
+    // The lobe's weight, added to the colour of the height fog and the distance fog.
+    let lobe = match (&scene.lobe, sun) {
+        (Some(l), Some(s)) if want_l => Some((l, l.weight(*dir, s))),
+        _ => None,
+    };
     if want_l {
         let mut num = [zero; 3];
         let mut den = [zero; 3];
@@ -281,12 +364,64 @@ fn eval_general<L: Lane, const AXIS: usize, const UNIT: bool>(
             }
         }
         for ch in 0..3 {
-            let colour = clamp_colour(num[ch] / den[ch].max(L::splat(1e-30)));
+            let mut colour = num[ch] / den[ch].max(L::splat(1e-30));
+            let mut lobe_c = zero;
+            if let Some((l, w)) = lobe {
+                lobe_c = w * L::splat(l.colour[ch]);
+                colour = colour + lobe_c;
+            }
+            let colour = clamp_colour(colour);
             let colour = match &vol {
                 Some(v) => v.mix(ch, colour, tau_h[ch]),
                 None => colour,
             };
-            out.insc[ch] = colour * (one - out.trans[ch]);
+            out.insc[ch] = match &dist_fog {
+                None => colour * (one - out.trans[ch]),
+                Some((f, d, len_f)) => {
+                    let c_d = clamp_colour(L::splat(f.colour[ch]) + lobe_c);
+                    // Atmospheric fog's in-scattering is not colour · (1 − T): its share
+                    // is added below, so it weighs in the mix with colour 0.
+                    let atm = matches!(f.plan, DistancePlan::Atmospheric { .. });
+                    let (w_d, colour) = crate::medium::distance::mix(
+                        colour,
+                        tau_hv[ch],
+                        if atm { zero } else { c_d },
+                        d.tau[ch],
+                    );
+                    let extra = match f.plan {
+                        DistancePlan::Atmospheric { insc, .. } => {
+                            crate::medium::distance::atmospheric_inscattering(
+                                insc[ch],
+                                c_d,
+                                *len_f,
+                                d.tau[ch],
+                                out.tau[ch],
+                                out.trans[ch],
+                                w_d,
+                            )
+                        }
+                        _ => zero,
+                    };
+                    colour * (one - out.trans[ch]) + extra
+                }
+            };
+        }
+    }
+    // Maximum opacity: the integration stops where 1 − T reaches it (see `FogLimits`).
+    if limits.opacity {
+        let floor = L::splat(limits.t_floor);
+        for ch in 0..3 {
+            // `a.max(b)` / `a.min(b)` return b when either is NaN: NaN stays NaN.
+            out.tau[ch] = L::splat(limits.tau_max).min(out.tau[ch]);
+            if want_t || want_l {
+                let t = out.trans[ch];
+                let tc = floor.max(t);
+                if want_l {
+                    let scale = L::select(t.lt(floor), (one - tc) / (one - t), one);
+                    out.insc[ch] = out.insc[ch] * scale;
+                }
+                out.trans[ch] = tc;
+            }
         }
     }
     out
@@ -481,11 +616,20 @@ pub(crate) trait PacketIo {
 /// [`eval_general`] instantiations as a batch with `unit == UNIT`, so a ray gives the same
 /// bits here as through `Scene::evaluate`. Components the kernel does not read (see
 /// [`reads`]) may hold anything.
+///
+/// `volumes`: the candidate fog volumes of these packets (see [`eval_general_with`]):
+/// the pass's per-tile list, or `None` for all.
 #[inline(always)]
-pub(crate) fn run_packets<const UNIT: bool, S: PacketIo>(scene: &Scene, count: usize, io: &mut S) {
+pub(crate) fn run_packets<const UNIT: bool, S: PacketIo>(
+    scene: &Scene,
+    volumes: Option<&[u32]>,
+    count: usize,
+    io: &mut S,
+) {
     #[inline(always)]
     fn go<const AXIS: usize, const UNIT: bool, const FAST: bool, S: PacketIo>(
         scene: &Scene,
+        volumes: Option<&[u32]>,
         count: usize,
         io: &mut S,
     ) {
@@ -497,19 +641,86 @@ pub(crate) fn run_packets<const UNIT: bool, S: PacketIo>(scene: &Scene, count: u
             }
         } else {
             for i in 0..count {
-                let r = eval_general::<f32x8, AXIS, UNIT>(scene, io.make(i), true, true, FAST);
+                let p = io.make(i);
+                let r = eval_general_with::<f32x8, AXIS, UNIT>(scene, p, true, true, FAST, volumes);
                 io.take(i, &r);
             }
         }
     }
     match (scene.axis, scene.tier == crate::Tier::Fast) {
-        (UpAxis::Axis(0), false) => go::<0, UNIT, false, S>(scene, count, io),
-        (UpAxis::Axis(1), false) => go::<1, UNIT, false, S>(scene, count, io),
-        (UpAxis::Axis(2), false) => go::<2, UNIT, false, S>(scene, count, io),
-        (_, false) => go::<GENERAL, UNIT, false, S>(scene, count, io),
-        (UpAxis::Axis(0), true) => go::<0, UNIT, true, S>(scene, count, io),
-        (UpAxis::Axis(1), true) => go::<1, UNIT, true, S>(scene, count, io),
-        (UpAxis::Axis(2), true) => go::<2, UNIT, true, S>(scene, count, io),
-        (_, true) => go::<GENERAL, UNIT, true, S>(scene, count, io),
+        (UpAxis::Axis(0), false) => go::<0, UNIT, false, S>(scene, volumes, count, io),
+        (UpAxis::Axis(1), false) => go::<1, UNIT, false, S>(scene, volumes, count, io),
+        (UpAxis::Axis(2), false) => go::<2, UNIT, false, S>(scene, volumes, count, io),
+        (_, false) => go::<GENERAL, UNIT, false, S>(scene, volumes, count, io),
+        (UpAxis::Axis(0), true) => go::<0, UNIT, true, S>(scene, volumes, count, io),
+        (UpAxis::Axis(1), true) => go::<1, UNIT, true, S>(scene, volumes, count, io),
+        (UpAxis::Axis(2), true) => go::<2, UNIT, true, S>(scene, volumes, count, io),
+        (_, true) => go::<GENERAL, UNIT, true, S>(scene, volumes, count, io),
+    }
+}
+
+/// The unspecialized baseline of `tests/plan.rs`: every packet of the batch through
+/// [`eval_general`]`::<f32x8, GENERAL, false>` (up as a dot product, |d| computed, τ, T
+/// and L_in all computed, the outputs chosen at run time), the tail padded as [`run`] pads
+/// it. `Scene::new` folds the sign of an axis-aligned up vector into the layers' constants
+/// for the axis kernels; they are unfolded here, so that the dot product with the scene's
+/// up vector gives the height.
+fn run_unspecialized(scene: &Scene, rays: &Rays<'_>, out: &mut Outputs<'_>) {
+    let mut general = scene.clone();
+    if let UpAxis::Axis(i) = scene.axis {
+        let sign = scene.up[i];
+        for l in &mut general.layers {
+            l.h0 *= sign;
+            l.b *= sign;
+            l.b_split = crate::scene::Split::of(l.b);
+        }
+        general.axis = UpAxis::General;
+    }
+    let scene = &general;
+    let fast = scene.tier == crate::Tier::Fast;
+    let n = rays.len();
+    let mut i = 0;
+    while i < n {
+        let m = (n - i).min(8);
+        let pad = |s: &[f32], fill: f32| {
+            let mut b = [fill; 8];
+            b[..m].copy_from_slice(&s[i..i + m]);
+            f32x8::new(b)
+        };
+        let p = PacketIn {
+            o: [0, 1, 2].map(|c| pad(rays.o[c], 0.0)),
+            d: [0, 1, 2].map(|c| pad(rays.d[c], 1.0)),
+            t: pad(rays.t, 0.0),
+        };
+        let r = eval_general::<f32x8, GENERAL, false>(scene, p, true, true, fast);
+        for (v, dst) in [
+            (r.tau, &mut out.tau),
+            (r.trans, &mut out.transmittance),
+            (r.insc, &mut out.inscattering),
+        ] {
+            if let Some(d) = dst {
+                for ch in 0..3 {
+                    d[ch][i..i + m].copy_from_slice(&v[ch].to_array()[..m]);
+                }
+            }
+        }
+        i += m;
+    }
+}
+
+impl Scene {
+    /// [`Scene::evaluate`] without the kernel specializations: every packet through the
+    /// general kernel (general up vector, non-unit directions, all outputs computed). For
+    /// tests (`tests/plan.rs`: the specialized kernels agree with it within the stated
+    /// bound).
+    #[doc(hidden)]
+    pub fn evaluate_unspecialized(
+        &self,
+        rays: &Rays<'_>,
+        mut out: Outputs<'_>,
+    ) -> Result<(), crate::BatchError> {
+        out.check(rays.len())?;
+        run_unspecialized(self, rays, &mut out);
+        Ok(())
     }
 }

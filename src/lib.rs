@@ -13,6 +13,7 @@
 //!     height_fog: vec![HeightFogLayer {
 //!         base_height: 0.0,
 //!         falloff: 0.08,
+//!         emission: glam::Vec3::ZERO,
 //!         components: vec![Component {
 //!             scattering: Vec3::splat(0.02),
 //!             absorption: Vec3::ZERO,
@@ -80,10 +81,11 @@ mod scene;
 mod serde_rgb;
 
 pub use error::{BatchError, PassError, SceneError};
-pub use light::Phase;
+pub use light::{Lobe, Phase};
+pub use medium::distance::{DistanceFog, Falloff};
 pub use medium::volume::{Profile, Shape, Volume, MAX_CUTS};
 pub use ray::{Outputs, Rays, RgbSlices};
-pub use scene::{Component, HeightFogLayer, Lighting, Scene, SceneDesc, Sun, Tier};
+pub use scene::{Component, FogLimits, HeightFogLayer, Lighting, Scene, SceneDesc, Sun, Tier};
 
 use glam::Vec3;
 use kernel::Width;

@@ -121,3 +121,79 @@ pub(crate) fn dot3<L: Lane>(v: [L; 3], s: [f32; 3]) -> L {
         v[1].mul_add(L::splat(s[1]), v[2] * L::splat(s[2])),
     )
 }
+
+/// A directional in-scattering lobe around the sun, next to the physical phase functions
+/// (Unreal's directional inscattering, Bevy's directional light colour, Inigo Quilez's
+/// sun-coloured fog): `colour · max(cos θ, 0)^exponent` is added to the fog colour of the
+/// height fog layers and of the distance fog (not to volumes, which have their own
+/// shading), θ the angle between the view direction and the sun. Needs `lighting.sun`
+/// (for its direction; the lobe's colour is its own).
+///
+/// Accuracy: `exp(−exponent · (−ln c))` with the crate's `log` and `exp_neg` (1 ULP
+/// each): relative error ≤ (3 + exponent·|ln c|) · 2⁻²⁴ for the computed c = cos θ, whose
+/// own rounding (a few ULP of the dot product) is the condition of the lobe (relative
+/// change exponent · Δc / c).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct Lobe {
+    /// The lobe's colour (RGB radiance at its peak, looking straight at the sun).
+    #[cfg_attr(feature = "serde", serde(with = "crate::serde_rgb"))]
+    pub colour: glam::Vec3,
+    /// The sharpness (> 0; Unreal's default is 4, Bevy's 8).
+    pub exponent: f32,
+}
+
+/// A compiled [`Lobe`].
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LobePlan {
+    pub colour: [f32; 3],
+    pub exponent: f32,
+}
+
+impl Lobe {
+    /// Validates the lobe; `None` when it adds nothing (a black colour).
+    pub(crate) fn compile(&self, field: &str) -> Result<Option<LobePlan>, SceneError> {
+        let mut colour = [0.0; 3];
+        for i in 0..3 {
+            let v = self.colour[i];
+            let f = format!("{field}.colour[{i}]");
+            if !v.is_finite() {
+                return Err(SceneError::NonFinite { field: f, value: v });
+            }
+            if v < 0.0 {
+                return Err(SceneError::Negative { field: f, value: v });
+            }
+            colour[i] = v;
+        }
+        let n = self.exponent;
+        if !n.is_finite() {
+            return Err(SceneError::NonFinite {
+                field: format!("{field}.exponent"),
+                value: n,
+            });
+        }
+        if n <= 0.0 {
+            return Err(SceneError::OutOfRange {
+                field: format!("{field}.exponent"),
+                value: n,
+                range: "(0, +inf)",
+            });
+        }
+        Ok((colour != [0.0; 3]).then_some(LobePlan {
+            colour,
+            exponent: n,
+        }))
+    }
+}
+
+impl LobePlan {
+    /// max(cos θ, 0)^exponent for unit `v` and `s`, lane-wise (0 behind the sun's plane).
+    #[inline(always)]
+    pub(crate) fn weight<L: Lane>(&self, v: [L; 3], s: [f32; 3]) -> L {
+        let c = dot3(v, s).clamp(L::splat(0.0), L::splat(1.0));
+        // c^n = e^(−n·(−ln c)); ln 0 = −inf gives e^(−inf) = 0.
+        let x = crate::math::log(c).neg() * L::splat(self.exponent);
+        crate::math::exp_neg(x)
+    }
+}

@@ -7,7 +7,8 @@
 //! changed after it is built, so a valid scene stays valid.
 
 use crate::error::SceneError;
-use crate::light::Phase;
+use crate::light::{Lobe, LobePlan, Phase};
+use crate::medium::distance::{DistanceFog, DistanceFogPlan};
 use glam::Vec3;
 
 /// One scattering component of a height fog layer (seed 001's Rayleigh or Mie part):
@@ -39,6 +40,11 @@ pub struct HeightFogLayer {
     pub falloff: f32,
     /// The scattering components (at least one).
     pub components: Vec<Component>,
+    /// Emitted radiance per unit extinction (RGB, default 0; Godot's FogMaterial
+    /// emission, Unreal's emissive fog): added to the layer's fog colour, so an optically
+    /// thick layer glows with this radiance and the layer adds `emission · (1 − T)`.
+    #[cfg_attr(feature = "serde", serde(default = "zero3", with = "crate::serde_rgb"))]
+    pub emission: Vec3,
 }
 
 /// The sun: a directional light.
@@ -92,6 +98,77 @@ pub struct SceneDesc {
     /// another with [`Scene::evaluate_tier`].
     #[cfg_attr(feature = "serde", serde(default))]
     pub tier: Tier,
+    /// Distance fog (Bevy's falloff modes; default none). Its optical depth adds to the
+    /// other media's and its colour joins the τ-weighted mix; see [`DistanceFog`].
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub distance_fog: Option<DistanceFog>,
+    /// Unreal's start distance, cutoff distance and maximum opacity (default: none),
+    /// applied to every medium; see [`FogLimits`].
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub limits: FogLimits,
+    /// A directional in-scattering lobe around the sun (default none; needs
+    /// `lighting.sun`); see [`Lobe`].
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub lobe: Option<Lobe>,
+}
+
+/// Where along a ray fog is integrated, and how opaque it may get (Unreal's exponential
+/// height fog controls), applied exactly to the integration interval rather than by fading
+/// the result.
+///
+/// With distances s measured from the camera along the ray (s = t·|d| at the segment's
+/// end), every medium (height fog, volumes, distance fog) is integrated over
+/// [start_distance, min(t·|d|, cutoff_distance)] only (empty when the segment ends before
+/// the start). `max_opacity` m stops the integration where 1 − T reaches m: τ becomes
+/// min(τ, −ln(1 − m)), T becomes max(T, 1 − m), and the in-scattered light is scaled by
+/// (1 − T_clamped)/(1 − T), which is the exact cut for media of one colour.
+///
+/// With a start or cutoff distance, rays are integrated from their unit direction and the
+/// segment's length rounded once to f32 (lengths beyond f32::MAX count as +∞), so the
+/// height fog's relative error bound applies to the shortened segment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct FogLimits {
+    /// No fog closer to the camera than this (≥ 0; default 0).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub start_distance: f32,
+    /// No fog farther from the camera than this (≥ 0; default: none).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub cutoff_distance: Option<f32>,
+    /// The largest opacity 1 − T (in [0, 1]; default 1: no limit).
+    #[cfg_attr(feature = "serde", serde(default = "one"))]
+    pub max_opacity: f32,
+}
+
+impl Default for FogLimits {
+    fn default() -> Self {
+        FogLimits {
+            start_distance: 0.0,
+            cutoff_distance: None,
+            max_opacity: 1.0,
+        }
+    }
+}
+
+/// The compiled [`FogLimits`].
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LimitsPlan {
+    /// A start or cutoff distance is set: rays are cut to the interval.
+    pub interval: bool,
+    pub start: f32,
+    /// +∞ for no cutoff.
+    pub cutoff: f32,
+    /// A maximum opacity below 1 is set.
+    pub opacity: bool,
+    /// 1 − max_opacity, and −ln of it (rounded once from f64).
+    pub t_floor: f32,
+    pub tau_max: f32,
+}
+
+#[allow(dead_code)]
+fn one() -> f32 {
+    1.0
 }
 
 /// Accuracy tiers: what the 8-lane kernels trade for speed.
@@ -144,6 +221,9 @@ impl Default for SceneDesc {
             lighting: Lighting::default(),
             volumes: Vec::new(),
             tier: Tier::Accurate,
+            distance_fog: None,
+            limits: FogLimits::default(),
+            lobe: None,
         }
     }
 }
@@ -211,6 +291,12 @@ pub struct Scene {
     pub(crate) volumes: crate::medium::volume::VolumeSet,
     /// The default tier of `evaluate` and of the framebuffer pass.
     pub(crate) tier: Tier,
+    /// The compiled distance fog, if it can change a ray.
+    pub(crate) distance: Option<DistanceFogPlan>,
+    /// Start and cutoff distances, maximum opacity.
+    pub(crate) limits: LimitsPlan,
+    /// The directional lobe.
+    pub(crate) lobe: Option<LobePlan>,
 }
 
 fn check_finite(field: impl FnOnce() -> String, v: f32) -> Result<(), SceneError> {
@@ -252,6 +338,42 @@ pub(crate) fn normalize_robust(field: &str, v: Vec3) -> Result<Vec3, SceneError>
     Ok((w / w.length()).as_vec3())
 }
 
+fn compile_limits(l: &FogLimits) -> Result<LimitsPlan, SceneError> {
+    let nonneg = |field: &str, v: f32| -> Result<f32, SceneError> {
+        check_finite(|| format!("limits.{field}"), v)?;
+        if v < 0.0 {
+            return Err(SceneError::Negative {
+                field: format!("limits.{field}"),
+                value: v,
+            });
+        }
+        Ok(v)
+    };
+    let start = nonneg("start_distance", l.start_distance)?;
+    let cutoff = match l.cutoff_distance {
+        Some(c) => nonneg("cutoff_distance", c)?,
+        None => f32::INFINITY,
+    };
+    let m = l.max_opacity;
+    check_finite(|| "limits.max_opacity".into(), m)?;
+    if !(0.0..=1.0).contains(&m) {
+        return Err(SceneError::OutOfRange {
+            field: "limits.max_opacity".into(),
+            value: m,
+            range: "[0, 1]",
+        });
+    }
+    let floor = 1.0 - m as f64;
+    Ok(LimitsPlan {
+        interval: start > 0.0 || cutoff < f32::INFINITY,
+        start,
+        cutoff,
+        opacity: m < 1.0,
+        t_floor: floor as f32,
+        tau_max: (-floor.ln()) as f32,
+    })
+}
+
 /// See [`LayerPlan::shared_scale`].
 fn shared_scale(sigma: [f32; 3]) -> Option<(f32, [f32; 3])> {
     let max = sigma.iter().cloned().fold(0.0f32, f32::max);
@@ -282,6 +404,7 @@ impl Scene {
     ///     height_fog: vec![HeightFogLayer {
     ///         base_height: 0.0,
     ///         falloff: -1.0 / 0.0, // not finite: rejected
+    ///         emission: glam::Vec3::ZERO,
     ///         components: vec![Component {
     ///             scattering: Vec3::splat(0.02),
     ///             absorption: Vec3::ZERO,
@@ -390,6 +513,10 @@ impl Scene {
                     }
                 }
             }
+            check_rgb_nonneg(&f("emission"), layer.emission)?;
+            for ch in 0..3 {
+                colour_const[ch] += layer.emission[ch] as f64;
+            }
             for (i, v) in colour_const.iter().enumerate() {
                 if !(v.is_finite() && (*v as f32).is_finite()) {
                     return Err(SceneError::NonFinite {
@@ -416,6 +543,26 @@ impl Scene {
         let volumes = crate::medium::volume::compile(&desc.volumes, lighting.ambient, sun)?;
         any_directional |= volumes.is_directional();
 
+        let distance = match &desc.distance_fog {
+            Some(fog) => crate::medium::distance::compile(fog)?,
+            None => None,
+        };
+        let limits = compile_limits(&desc.limits)?;
+        let lobe = match &desc.lobe {
+            Some(l) => {
+                let plan = l.compile("lobe")?;
+                if sun.is_none() {
+                    return Err(SceneError::Requires {
+                        field: "lobe".into(),
+                        requires: "lighting.sun",
+                    });
+                }
+                plan
+            }
+            None => None,
+        };
+        any_directional |= lobe.is_some();
+
         Ok(Scene {
             up,
             axis,
@@ -427,8 +574,21 @@ impl Scene {
                 None
             },
             tier: desc.tier,
+            distance,
+            limits,
+            lobe,
             desc,
         })
+    }
+
+    /// True if the scene has a control beyond height fog and volumes (distance fog,
+    /// start/cutoff distance, maximum opacity, directional lobe): those run in the
+    /// general kernel.
+    pub(crate) fn has_controls(&self) -> bool {
+        self.distance.is_some()
+            || self.limits.interval
+            || self.limits.opacity
+            || self.lobe.is_some()
     }
 
     /// The tier [`Scene::evaluate`] runs.

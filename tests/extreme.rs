@@ -50,6 +50,7 @@ fn layer(h0: f32, b: f32, components: Vec<Component>) -> HeightFogLayer {
     HeightFogLayer {
         base_height: h0,
         falloff: b,
+        emission: glam::Vec3::ZERO,
         components,
     }
 }

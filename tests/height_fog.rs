@@ -132,6 +132,7 @@ fn layer(range: Range) -> BoxedStrategy<HeightFogLayer> {
         .prop_map(|(h0, b, components)| HeightFogLayer {
             base_height: h0 as f32,
             falloff: b as f32,
+            emission: glam::Vec3::ZERO,
             components,
         })
         .boxed()
@@ -505,6 +506,7 @@ fn any_scene() -> BoxedStrategy<(SceneDesc, Scene)> {
         |(h0, b, components)| HeightFogLayer {
             base_height: h0,
             falloff: b,
+            emission: glam::Vec3::ZERO,
             components,
         },
     );
@@ -611,6 +613,7 @@ fn moderate_case() -> BoxedStrategy<(SceneDesc, Vec3, Vec3, f32)> {
         .prop_map(|(base_height, falloff, components)| HeightFogLayer {
             base_height,
             falloff,
+            emission: glam::Vec3::ZERO,
             components,
         });
     (
@@ -708,6 +711,7 @@ fn quadrature_hand_values() {
     let layer = |b: f32, s: f32| HeightFogLayer {
         base_height: 0.0,
         falloff: b,
+        emission: glam::Vec3::ZERO,
         components: vec![Component {
             scattering: Vec3::splat(s),
             absorption: Vec3::ZERO,
@@ -897,6 +901,7 @@ fn phase_functions_normalized_and_in_the_kernel() {
             height_fog: vec![HeightFogLayer {
                 base_height: 0.0,
                 falloff: 0.1,
+                emission: glam::Vec3::ZERO,
                 components: vec![Component {
                     scattering: Vec3::splat(0.05),
                     absorption: Vec3::ZERO,

@@ -63,6 +63,7 @@ fn scene(rng: &mut Rng, kind: usize) -> Scene {
     let layer = |rng: &mut Rng, phase| HeightFogLayer {
         base_height: rng.range(-5.0, 5.0),
         falloff: rng.range(0.01, 0.5),
+        emission: glam::Vec3::ZERO,
         components: vec![component(rng, phase)],
     };
     let g = rng.range(-0.9, 0.9);
@@ -764,4 +765,389 @@ fn wrong_lengths_and_parameters_are_errors_naming_the_buffer() {
     let ortho = Mat4::orthographic_rh(-1.0, 1.0, -1.0, 1.0, 0.1, 10.0).inverse();
     let e = Camera::from_inverse_view_projection(ortho, None).unwrap_err();
     assert!(msg(e).starts_with("position: required"));
+}
+
+// ---------------------------------------------------------------------------------------
+// Fog volumes: the pass's per-tile culling (issue 5). A pixel fogged with the tiles'
+// candidate lists is bit-identical to the same pixel without any culling
+// (`Scene::without_culling`), with the per-packet culling only
+// (`Scene::without_tile_culling`) and to the batch API.
+
+/// The world radius of a sphere containing the shape, as the library bounds it (a
+/// sphere's radius, an ellipsoid's longest semi-axis, a box's half diagonal, the
+/// Frobenius norm of a general matrix).
+fn bound_of(shape: &analytic_fog::Shape) -> f32 {
+    use analytic_fog::Shape;
+    match shape {
+        Shape::Sphere { radius, .. } => *radius,
+        Shape::Ellipsoid { radii, .. } => radii.max_element(),
+        Shape::Affine { matrix, .. } => matrix
+            .iter()
+            .map(|c| c.length_squared())
+            .sum::<f32>()
+            .sqrt(),
+        Shape::Box { half_extents, .. } => half_extents.length(),
+    }
+}
+
+fn random_quat(rng: &mut Rng) -> glam::Quat {
+    glam::Quat::from_axis_angle(rng.unit(), rng.range(0.0, 6.3))
+}
+
+/// A shape of about `size` at `center`.
+fn random_shape(rng: &mut Rng, center: Vec3, size: f32) -> analytic_fog::Shape {
+    use analytic_fog::Shape;
+    match rng.below(4) {
+        0 => Shape::Sphere {
+            center,
+            radius: size,
+        },
+        1 => Shape::Ellipsoid {
+            center,
+            radii: Vec3::new(size * rng.range(0.2, 1.0), size * rng.range(0.2, 1.0), size),
+            rotation: random_quat(rng),
+        },
+        2 => Shape::Box {
+            center,
+            half_extents: Vec3::new(size * rng.range(0.2, 1.0), size, size * rng.range(0.2, 1.0)),
+            rotation: random_quat(rng),
+            edge_fade: if rng.below(2) == 0 {
+                0.0
+            } else {
+                rng.range(0.05, 1.0)
+            },
+        },
+        _ => loop {
+            let m = [0; 3].map(|_| rng.unit() * size * rng.range(0.3, 1.0));
+            let det = glam::Mat3::from_cols(m[0], m[1], m[2]).determinant().abs();
+            if det / (m[0].length() * m[1].length() * m[2].length()) > 0.1 {
+                break Shape::Affine { center, matrix: m };
+            }
+        },
+    }
+}
+
+/// Where volumes are put: around the rays of pixels on tile boundaries and frame edges
+/// (and random ones), at the distance of the per-packet test's margin from the ray
+/// (grazing it from either side), through it, containing the camera; small and many.
+fn volumes_in_view(
+    rng: &mut Rng,
+    cam: &Camera,
+    w: usize,
+    h: usize,
+    count: usize,
+    cuts: usize,
+) -> Vec<analytic_fog::Volume> {
+    use analytic_fog::{Profile, Shape, Volume};
+    let (tw, th) = Scene::tile_size();
+    let edge = |rng: &mut Rng, n: usize, t: usize| -> usize {
+        match rng.below(5) {
+            0 => 0,
+            1 => n - 1,
+            2 | 3 if n > t => {
+                // On either side of a tile boundary.
+                let b = t * (1 + rng.below((n - 1) / t));
+                (b - rng.below(2)).min(n - 1)
+            }
+            _ => rng.below(n),
+        }
+    };
+    let mut out = Vec::new();
+    for i in 0..count + cuts {
+        let (x, y) = (edge(rng, w, tw), edge(rng, h, th));
+        let r = cam
+            .pixel_ray(x, y, w, h, 1.0, DepthConvention::LinearView)
+            .unwrap();
+        let dir = r.direction.normalize();
+        let s = match rng.below(4) {
+            0 => rng.range(0.0, 3.0),
+            1 => rng.range(3.0, 300.0),
+            _ => rng.range(3.0, 60.0),
+        };
+        let size = match rng.below(3) {
+            0 => rng.range(0.01, 0.2),
+            1 => rng.range(0.2, 1.5),
+            _ => rng.range(1.5, 8.0),
+        };
+        let mut shape = random_shape(rng, Vec3::ZERO, size);
+        let b = bound_of(&shape);
+        // Off the ray by the bound times k: inside, at the per-packet test's margin
+        // (1.001), just outside it, and clearly outside; toward a random side.
+        let k = [
+            0.0, 0.5, 0.999, 1.0, 1.0009, 1.001, 1.0011, 1.002, 1.01, 1.3,
+        ][rng.below(10)];
+        let side = dir.cross(rng.unit()).normalize_or_zero();
+        let mut center = r.origin + dir * s + side * (b * k);
+        if rng.below(25) == 0 {
+            // Containing the camera.
+            center = r.origin + rng.unit() * (0.5 * b * rng.f());
+        }
+        match &mut shape {
+            Shape::Sphere { center: c, .. }
+            | Shape::Ellipsoid { center: c, .. }
+            | Shape::Affine { center: c, .. }
+            | Shape::Box { center: c, .. } => *c = center,
+        }
+        let profile = if matches!(shape, Shape::Box { .. }) {
+            Profile::Constant
+        } else {
+            Profile::ALL[rng.below(6)]
+        };
+        let v = if i >= count {
+            Volume::cut(shape)
+        } else {
+            let mut v = Volume::new(
+                shape,
+                profile,
+                Vec3::new(
+                    rng.range(0.0, 2.0),
+                    rng.range(0.0, 2.0),
+                    rng.range(0.0, 2.0),
+                ) / size.max(0.1),
+            );
+            v.absorption = Vec3::splat(rng.range(0.0, 0.5));
+            v.emission = Vec3::splat(rng.range(0.0, 0.3));
+            if rng.below(3) == 0 {
+                v.phase = Phase::HenyeyGreenstein(rng.range(-0.8, 0.8));
+            }
+            v
+        };
+        out.push(v);
+    }
+    out
+}
+
+/// Depth values with structure (so that tiles have narrow depth ranges and the depth
+/// test culls): constant blocks of random size, sky blocks, and a few random pixels.
+fn blocky_depths(rng: &mut Rng, conv: DepthConvention, w: usize, h: usize) -> Vec<f32> {
+    let (bw, bh) = (1 + rng.below(40), 1 + rng.below(12));
+    let vals = depths(rng, conv, w.div_ceil(bw) * h.div_ceil(bh));
+    let noise = depths(rng, conv, w * h);
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            if rng.below(50) == 0 {
+                noise[i]
+            } else {
+                vals[(y / bh) * w.div_ceil(bw) + x / bw]
+            }
+        })
+        .collect()
+}
+
+/// Frame sizes: not multiples of the tile size (32 × 8), single rows and columns.
+const TILE_SIZES: [(usize, usize); 10] = [
+    (1, 1),
+    (7, 3),
+    (31, 9),
+    (33, 17),
+    (65, 8),
+    (40, 23),
+    (97, 31),
+    (8, 70),
+    (1, 19),
+    (130, 12),
+];
+
+#[test]
+fn volume_tile_culling_is_bit_identical_to_no_culling_and_batch_api() {
+    let mut rng = Rng(0x5eed_7113_c011_0001);
+    let (mut listed, mut possible) = (0usize, 0usize);
+    for case in 0..240 {
+        let (w, h) = TILE_SIZES[case % TILE_SIZES.len()];
+        let cam = camera(&mut rng, w, h);
+        let conv = convention(&mut rng, &cam);
+        let depth = if rng.below(2) == 0 {
+            blocky_depths(&mut rng, conv, w, h)
+        } else {
+            depths(&mut rng, conv, w * h)
+        };
+        let count = if case % 4 == 0 {
+            150 + rng.below(150)
+        } else {
+            1 + rng.below(30)
+        };
+        let cuts = if rng.below(3) == 0 { rng.below(4) } else { 0 };
+        let vols = volumes_in_view(&mut rng, &cam, w, h, count, cuts);
+        // With one RGB layer (sun, ambient: the usual case), two layers, or volumes alone.
+        let base = scene(&mut rng, [0, 1, 2][case % 3]);
+        let mut desc = base.desc().clone();
+        if case % 5 == 4 {
+            desc.height_fog.clear();
+        }
+        desc.volumes = vols;
+        let scene = Scene::new(desc).unwrap();
+        let unculled = scene.clone().without_culling();
+        let packet_only = scene.clone().without_tile_culling();
+        let d = Depth {
+            values: &depth,
+            convention: conv,
+        };
+        let n = w * h;
+        let surface: Vec<f32> = (0..3 * n).map(|_| rng.range(0.0, 4.0)).collect();
+        let (tr, li) = batch_reference(&scene, &cam, w, h, &depth, conv);
+        let run = |s: &Scene, par: bool| {
+            let mut c = surface.clone();
+            if par {
+                s.fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut c))
+                    .unwrap();
+            } else {
+                s.fog_pass_single(&cam, w, h, d, ColourBuffer::Rgb(&mut c))
+                    .unwrap();
+            }
+            c
+        };
+        let culled = run(&scene, case % 2 == 0);
+        let none = run(&unculled, false);
+        let packet = run(&packet_only, true);
+        // Planar and RGBA layouts with the lists too.
+        let mut planes: [Vec<f32>; 3] =
+            [0, 1, 2].map(|c| (0..n).map(|i| surface[3 * i + c]).collect());
+        let [pr, pg, pb] = &mut planes;
+        scene
+            .fog_pass(&cam, w, h, d, ColourBuffer::Planar([pr, pg, pb]))
+            .unwrap();
+        let mut rgba: Vec<f32> = (0..n)
+            .flat_map(|i| [surface[3 * i], surface[3 * i + 1], surface[3 * i + 2], 0.5])
+            .collect();
+        scene
+            .fog_pass_single(&cam, w, h, d, ColourBuffer::Rgba(&mut rgba))
+            .unwrap();
+        for i in 0..n {
+            for c in 0..3 {
+                let e = Lane::mul_add(surface[3 * i + c], tr[i][c], li[i][c]);
+                let ctx = || {
+                    format!(
+                        "case {case}, {w}x{h}, pixel ({}, {}), channel {c}, {conv:?}, {cam:?}, depth {}",
+                        i % w,
+                        i / w,
+                        depth[i]
+                    )
+                };
+                let bits = culled[3 * i + c].to_bits();
+                assert_eq!(
+                    bits,
+                    none[3 * i + c].to_bits(),
+                    "tile culled vs unculled: {}",
+                    ctx()
+                );
+                assert_eq!(
+                    bits,
+                    packet[3 * i + c].to_bits(),
+                    "tile vs packet culled: {}",
+                    ctx()
+                );
+                assert_eq!(bits, e.to_bits(), "tile culled vs batch API: {}", ctx());
+                assert_eq!(bits, planes[c][i].to_bits(), "planar: {}", ctx());
+                assert_eq!(bits, rgba[4 * i + c].to_bits(), "RGBA: {}", ctx());
+            }
+        }
+        let lists = scene
+            .fog_pass_tile_candidates(&cam, w, h, d)
+            .unwrap()
+            .expect("volumes are culled per tile");
+        let (tw, th) = Scene::tile_size();
+        assert_eq!(lists.len(), w.div_ceil(tw) * h.div_ceil(th));
+        listed += lists.iter().sum::<usize>();
+        possible += lists.len() * count;
+        assert!(lists.iter().all(|&k| k <= count));
+        assert!(unculled
+            .fog_pass_tile_candidates(&cam, w, h, d)
+            .unwrap()
+            .is_none());
+        assert!(packet_only
+            .fog_pass_tile_candidates(&cam, w, h, d)
+            .unwrap()
+            .is_none());
+    }
+    // The lists do cull (most volumes are placed at edges and away from most tiles).
+    eprintln!("candidates listed: {listed} of {possible} tile-volume pairs");
+    assert!(listed * 2 < possible, "{listed} of {possible}");
+}
+
+/// Many small volumes in front of a perspective camera at a larger frame, with structured
+/// depth: parallel and single passes, tile culled and not, all the same bits.
+#[test]
+fn many_small_volumes_large_frame_bit_identical() {
+    let mut rng = Rng(0xface_b00c);
+    let (w, h) = (203, 77);
+    let cam = Camera::perspective(
+        Vec3::new(0.0, 2.0, 0.0),
+        Vec3::new(0.1, -0.2, -1.0),
+        Vec3::Y,
+        1.0,
+        w as f32 / h as f32,
+    )
+    .unwrap();
+    let mut vols = Vec::new();
+    for _ in 0..600 {
+        let x = rng.below(w);
+        let y = rng.below(h);
+        let r = cam
+            .pixel_ray(x, y, w, h, 1.0, DepthConvention::LinearView)
+            .unwrap();
+        let center = r.origin + r.direction.normalize() * rng.range(5.0, 200.0) + rng.unit() * 0.5;
+        let size = rng.range(0.1, 1.0);
+        let shape = random_shape(&mut rng, center, size);
+        let profile = if matches!(shape, analytic_fog::Shape::Box { .. }) {
+            analytic_fog::Profile::Constant
+        } else {
+            analytic_fog::Profile::ALL[rng.below(6)]
+        };
+        vols.push(analytic_fog::Volume::new(
+            shape,
+            profile,
+            Vec3::new(0.5, 0.7, 0.9),
+        ));
+    }
+    let mut desc = scene(&mut rng, 0).desc().clone();
+    desc.volumes = vols;
+    let scene = Scene::new(desc).unwrap();
+    // A ground plane (y = 0) and sky.
+    let depth: Vec<f32> = (0..w * h)
+        .map(|i| {
+            let r = cam
+                .pixel_ray(i % w, i / w, w, h, 1.0, DepthConvention::LinearView)
+                .unwrap();
+            if r.direction.y < 0.0 {
+                -r.origin.y / r.direction.y
+            } else {
+                f32::INFINITY
+            }
+        })
+        .collect();
+    let d = Depth::linear_view(&depth);
+    let surface: Vec<f32> = (0..3 * w * h).map(|_| rng.range(0.0, 2.0)).collect();
+    let mut a = surface.clone();
+    let mut b = surface.clone();
+    let mut c = surface.clone();
+    scene
+        .fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut a))
+        .unwrap();
+    scene
+        .fog_pass_single(&cam, w, h, d, ColourBuffer::Rgb(&mut b))
+        .unwrap();
+    scene
+        .clone()
+        .without_culling()
+        .fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut c))
+        .unwrap();
+    let (tr, li) = batch_reference(&scene, &cam, w, h, &depth, DepthConvention::LinearView);
+    for i in 0..w * h {
+        for k in 0..3 {
+            let e = Lane::mul_add(surface[3 * i + k], tr[i][k], li[i][k]);
+            let j = 3 * i + k;
+            assert_eq!(a[j].to_bits(), e.to_bits(), "pixel {i} channel {k}");
+            assert_eq!(b[j].to_bits(), e.to_bits(), "pixel {i} channel {k}");
+            assert_eq!(c[j].to_bits(), e.to_bits(), "pixel {i} channel {k}");
+        }
+    }
+    // Most tiles list few of the 600 volumes.
+    let lists = scene
+        .fog_pass_tile_candidates(&cam, w, h, d)
+        .unwrap()
+        .unwrap();
+    let mean = lists.iter().sum::<usize>() as f64 / lists.len() as f64;
+    eprintln!("mean candidates per tile: {mean:.1} of 600");
+    assert!(mean < 60.0, "{mean}");
 }

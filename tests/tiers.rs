@@ -77,6 +77,7 @@ fn random_scene(r: &mut Rng, extreme: bool) -> SceneDesc {
             HeightFogLayer {
                 base_height: r.range(-5.0, 5.0) as f32,
                 falloff: b as f32,
+                emission: glam::Vec3::ZERO,
                 components: comps,
             }
         })

@@ -695,6 +695,7 @@ fn lit_scene(r: &mut Rng, with_height_fog: bool) -> SceneDesc {
             vec![HeightFogLayer {
                 base_height: 0.0,
                 falloff: 0.1,
+                emission: glam::Vec3::ZERO,
                 components: vec![Component {
                     scattering: Vec3::new(0.01, 0.02, 0.03),
                     absorption: Vec3::ZERO,

@@ -44,7 +44,8 @@
 #![no_main]
 
 use analytic_fog::{
-    Component, HeightFogLayer, Lighting, Outputs, Phase, Rays, Scene, SceneDesc, Sun, Tier,
+    Component, DistanceFog, Falloff, HeightFogLayer, Lighting, Lobe, Outputs, Phase, Rays,
+    Scene, SceneDesc, Sun, Tier,
 };
 use glam::Vec3;
 use libfuzzer_sys::fuzz_target;
@@ -131,6 +132,7 @@ fn scene_from(inp: &mut Input) -> SceneDesc {
         height_fog.push(HeightFogLayer {
             base_height,
             falloff,
+            emission: glam::Vec3::ZERO,
             components,
         });
     }
@@ -144,11 +146,75 @@ fn scene_from(inp: &mut Input) -> SceneDesc {
         None
     };
     // Height fog only (fog volumes are left empty).
-    SceneDesc {
+    let mut desc = SceneDesc {
         up,
         height_fog,
         lighting: Lighting { ambient, sun },
         ..SceneDesc::default()
+    };
+    if flags & 0x20 != 0 {
+        controls_from(inp, raw, &mut desc);
+    }
+    desc
+}
+
+/// The fog controls (issue 3): distance fog, start/cutoff distance, maximum opacity,
+/// lobe, emission, each chosen by a bit of one byte.
+fn controls_from(inp: &mut Input, raw: bool, desc: &mut SceneDesc) {
+    let c = inp.byte();
+    let pos = |inp: &mut Input| {
+        let v = inp.f32();
+        if raw {
+            v
+        } else {
+            v.abs()
+        }
+    };
+    if c & 1 != 0 {
+        let falloff = match (c >> 1) & 3 {
+            0 => {
+                let start = pos(inp);
+                Falloff::Linear {
+                    start,
+                    end: start + pos(inp),
+                }
+            }
+            1 => Falloff::Exponential { density: pos(inp) },
+            2 => Falloff::ExponentialSquared { density: pos(inp) },
+            _ => Falloff::Atmospheric {
+                extinction: inp.coeff3(raw),
+                inscattering: inp.coeff3(raw),
+            },
+        };
+        desc.distance_fog = Some(DistanceFog {
+            falloff,
+            colour: inp.coeff3(raw),
+        });
+    }
+    if c & 8 != 0 {
+        desc.limits.start_distance = pos(inp);
+    }
+    if c & 16 != 0 {
+        desc.limits.cutoff_distance = Some(pos(inp));
+    }
+    if c & 32 != 0 {
+        let m = inp.f32();
+        desc.limits.max_opacity = if raw {
+            m
+        } else {
+            (m.to_bits() & 0xff_ffff) as f32 / 16_777_216.0
+        };
+    }
+    if c & 64 != 0 {
+        desc.lobe = Some(Lobe {
+            colour: inp.coeff3(raw),
+            exponent: pos(inp),
+        });
+    }
+    if c & 128 != 0 {
+        for l in &mut desc.height_fog {
+            l.emission = inp.coeff3(raw);
+        }
     }
 }
 
@@ -195,9 +261,16 @@ fn max_fog_colour(desc: &SceneDesc) -> f64 {
             if bt > 0.0 {
                 worst = worst.max(num / bt);
             }
+            worst = worst.max(layer.emission[ch] as f64 + num / bt.max(1e-300));
         }
     }
-    worst
+    // The controls' colours add to the layers' (the lobe to every layer and to the
+    // distance fog).
+    let lobe = desc.lobe.map_or(0.0, |l| l.colour.max_element() as f64);
+    let dist = desc
+        .distance_fog
+        .map_or(0.0, |f| f.colour.max_element() as f64);
+    worst.max(dist) + lobe
 }
 
 /// Nine output slices (τ, T, L_in per channel).

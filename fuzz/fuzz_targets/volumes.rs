@@ -126,6 +126,7 @@ fn scene_from(inp: &mut Input) -> SceneDesc {
         vec![HeightFogLayer {
             base_height: inp.f32(),
             falloff: inp.f32(),
+            emission: glam::Vec3::ZERO,
             components: vec![Component {
                 scattering: inp.pos3(raw),
                 absorption: Vec3::ZERO,

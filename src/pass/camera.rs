@@ -405,18 +405,18 @@ pub(crate) enum DepthPlan {
 /// camera's ray field, and the depth conversion constants.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct FramePlan {
-    ortho: bool,
-    su: f32,
-    ou: f32,
-    sv: f32,
-    ov: f32,
-    o0: [f32; 3],
-    o_u: [f32; 3],
-    o_v: [f32; 3],
-    d0: [f32; 3],
-    d_u: [f32; 3],
-    d_v: [f32; 3],
-    depth: DepthPlan,
+    pub(super) ortho: bool,
+    pub(super) su: f32,
+    pub(super) ou: f32,
+    pub(super) sv: f32,
+    pub(super) ov: f32,
+    pub(super) o0: [f32; 3],
+    pub(super) o_u: [f32; 3],
+    pub(super) o_v: [f32; 3],
+    pub(super) d0: [f32; 3],
+    pub(super) d_u: [f32; 3],
+    pub(super) d_v: [f32; 3],
+    pub(super) depth: DepthPlan,
 }
 
 /// The parts of a pixel's ray that are constant along a row.

@@ -9,7 +9,9 @@
 //! change per pixel (the NDC mapping, the camera's ray field, the depth conversion
 //! constants; the scene's phase and colour constants live in the compiled [`Scene`]) is
 //! computed once per frame. The height-dependent terms of the camera (its density) are
-//! computed per ray by the same kernel as the batch API.
+//! computed per ray by the same kernel as the batch API. With fog volumes, each tile of
+//! 32×8 pixels gets the list of the volumes its rays may reach, built once and used by all
+//! its packets (`cull.rs`); the list changes no result.
 //!
 //! A pixel's result is bit-identical to the batch API's for the ray
 //! [`Camera::pixel_ray`] returns: the pass generates the same f32 ray with the same
@@ -24,6 +26,7 @@
 //! Pixel rays go through pixel centres; see [`Camera`] for the NDC convention.
 
 mod camera;
+mod cull;
 
 pub use crate::error::PassError;
 pub use camera::{Camera, DepthConvention, PixelRay, Projection};
@@ -32,6 +35,7 @@ use crate::kernel::{run_packets, PacketIn, PacketIo, PacketOut};
 use crate::math::Lane;
 use crate::scene::Scene;
 use camera::{FramePlan, RowPlan};
+use cull::{FrameCull, TileLists, TILE_H, TILE_PACKETS};
 use rayon::prelude::*;
 use wide::f32x8;
 
@@ -129,6 +133,7 @@ impl Scene {
     ///     height_fog: vec![HeightFogLayer {
     ///         base_height: 0.0,
     ///         falloff: 0.1,
+    ///         emission: glam::Vec3::ZERO,
     ///         components: vec![Component {
     ///             scattering: Vec3::new(0.02, 0.03, 0.05),
     ///             absorption: Vec3::ZERO,
@@ -183,6 +188,49 @@ impl Scene {
     ) -> Result<(), PassError> {
         fog_pass(self, camera, width, height, depth, colour, false)
     }
+
+    /// This scene with the framebuffer pass's per-tile culling of fog volumes switched
+    /// off, the per-packet culling kept (as in the batch API). For tests and benchmarks:
+    /// it changes no result.
+    #[doc(hidden)]
+    pub fn without_tile_culling(mut self) -> Scene {
+        self.volumes.no_tile_culling = true;
+        self
+    }
+
+    /// The number of candidate fog volumes the pass gives the kernel for each tile of
+    /// `tile_size()` pixels (row-major over the frame's tiles), or `None` where the pass
+    /// lists none (no additive volume, or culling switched off). For tests and benchmarks.
+    #[doc(hidden)]
+    pub fn fog_pass_tile_candidates(
+        &self,
+        camera: &Camera,
+        width: usize,
+        height: usize,
+        depth: Depth<'_>,
+    ) -> Result<Option<Vec<usize>>, PassError> {
+        check_len("depth", depth.values.len(), 1, width, height)?;
+        let plan = FramePlan::new(camera, width, height, depth.convention)?;
+        if width == 0 || height == 0 {
+            return Ok(None);
+        }
+        let Some(cull) = FrameCull::new(self, &plan, width, height) else {
+            return Ok(None);
+        };
+        let mut counts = Vec::new();
+        let mut lists = TileLists::default();
+        for (g, d) in depth.values.chunks(TILE_H * width).enumerate() {
+            cull.tiles(&plan, g * TILE_H, d, &mut lists);
+            counts.extend((0..lists.len()).map(|j| lists.list(j).len()));
+        }
+        Ok(Some(counts))
+    }
+
+    /// The tile size of [`Scene::fog_pass_tile_candidates`]: (width, height) in pixels.
+    #[doc(hidden)]
+    pub fn tile_size() -> (usize, usize) {
+        (cull::TILE_W, TILE_H)
+    }
 }
 
 fn check_len(
@@ -232,13 +280,30 @@ fn fog_pass(
     if width == 0 || height == 0 {
         return Ok(());
     }
-    let band = (BAND_PIXELS / width).max(1);
+    // With fog volumes, bands of whole tile rows, whose tiles' candidate lists are built
+    // once and used by all their packets (`cull`).
+    let cull = FrameCull::new(scene, &plan, width, height);
+    let cull = cull.as_ref();
+    let band = match cull {
+        Some(_) => TILE_H * (BAND_PIXELS / (width * TILE_H)).max(1),
+        None => (BAND_PIXELS / width).max(1),
+    };
     let d = depth.values;
     match colour {
-        ColourBuffer::Rgb(c) => interleaved::<3>(scene, &plan, width, band, d, c, par),
-        ColourBuffer::Rgba(c) => interleaved::<4>(scene, &plan, width, band, d, c, par),
+        ColourBuffer::Rgb(c) => interleaved::<3>(scene, &plan, cull, width, band, d, c, par),
+        ColourBuffer::Rgba(c) => interleaved::<4>(scene, &plan, cull, width, band, d, c, par),
         ColourBuffer::Planar([r, g, b]) => {
             let f = |(bi, (((r, g), b), d)): PlanarBand<'_>| {
+                if let Some(cull) = cull {
+                    let mut rows: Vec<Planar<'_>> = r
+                        .chunks_exact_mut(width)
+                        .zip(g.chunks_exact_mut(width))
+                        .zip(b.chunks_exact_mut(width))
+                        .map(|((r, g), b)| Planar([r, g, b]))
+                        .collect();
+                    fog_band_tiled(scene, &plan, cull, bi * band, d, &mut rows);
+                    return;
+                }
                 for (k, dr) in d.chunks_exact(width).enumerate() {
                     let s = k * width..(k + 1) * width;
                     let row = Planar([&mut r[s.clone()], &mut g[s.clone()], &mut b[s]]);
@@ -266,9 +331,11 @@ fn fog_pass(
     Ok(())
 }
 
+#[allow(clippy::too_many_arguments)]
 fn interleaved<const C: usize>(
     scene: &Scene,
     plan: &FramePlan,
+    cull: Option<&FrameCull>,
     width: usize,
     band: usize,
     depth: &[f32],
@@ -276,6 +343,14 @@ fn interleaved<const C: usize>(
     par: bool,
 ) {
     let f = |(bi, (c, d)): (usize, (&mut [f32], &[f32]))| {
+        if let Some(cull) = cull {
+            let mut rows: Vec<Interleaved<'_, C>> = c
+                .chunks_exact_mut(C * width)
+                .map(Interleaved::<C>)
+                .collect();
+            fog_band_tiled(scene, plan, cull, bi * band, d, &mut rows);
+            return;
+        }
         for (k, (cr, dr)) in c
             .chunks_exact_mut(C * width)
             .zip(d.chunks_exact(width))
@@ -353,6 +428,17 @@ impl<const C: usize> RowColour for Interleaved<'_, C> {
 /// A row of a planar buffer.
 struct Planar<'a>([&'a mut [f32]; 3]);
 
+impl<R: RowColour> RowColour for &mut R {
+    #[inline(always)]
+    fn load(&self, x0: usize, n: usize) -> [f32x8; 3] {
+        (**self).load(x0, n)
+    }
+    #[inline(always)]
+    fn store(&mut self, x0: usize, n: usize, v: [f32x8; 3]) {
+        (**self).store(x0, n, v)
+    }
+}
+
 impl RowColour for Planar<'_> {
     #[inline(always)]
     fn load(&self, x0: usize, n: usize) -> [f32x8; 3] {
@@ -387,12 +473,14 @@ struct RowIo<'a, R> {
     row: RowPlan,
     depth: &'a [f32],
     out: R,
+    /// The row's packet that the kernel's packet 0 is.
+    first: usize,
 }
 
 impl<R: RowColour> PacketIo for RowIo<'_, R> {
     #[inline(always)]
     fn make(&mut self, i: usize) -> PacketIn<f32x8> {
-        let x0 = i * 8;
+        let x0 = (self.first + i) * 8;
         let width = self.depth.len();
         let dv = if x0 + 8 <= width {
             f32x8::load(&self.depth[x0..x0 + 8])
@@ -409,7 +497,7 @@ impl<R: RowColour> PacketIo for RowIo<'_, R> {
 
     #[inline(always)]
     fn take(&mut self, i: usize, r: &PacketOut<f32x8>) {
-        let x0 = i * 8;
+        let x0 = (self.first + i) * 8;
         let n = (self.depth.len() - x0).min(8);
         let c = self.out.load(x0, n);
         let v = [0, 1, 2].map(|ch| Lane::mul_add(c[ch], r.trans[ch], r.insc[ch]));
@@ -426,6 +514,58 @@ fn fog_row<R: RowColour>(scene: &Scene, plan: &FramePlan, y: usize, depth: &[f32
         row: plan.row(y),
         depth,
         out,
+        first: 0,
     };
-    run_packets::<false, _>(scene, depth.len().div_ceil(8), &mut io);
+    run_packets::<false, _>(scene, None, depth.len().div_ceil(8), &mut io);
+}
+
+/// Fogs a band of rows starting at row `y0` (`depth`: their depth values; `rows`: their
+/// colour) tile by tile: per group of [`TILE_H`] rows, the tiles' candidate volumes are
+/// listed once (`cull`), then each row is fogged with its tiles' lists.
+fn fog_band_tiled<R: RowColour>(
+    scene: &Scene,
+    plan: &FramePlan,
+    cull: &FrameCull,
+    y0: usize,
+    depth: &[f32],
+    rows: &mut [R],
+) {
+    let width = depth.len() / rows.len();
+    let mut lists = TileLists::default();
+    for (g, group) in rows.chunks_mut(TILE_H).enumerate() {
+        let gy = g * TILE_H;
+        let d = &depth[gy * width..(gy + group.len()) * width];
+        cull.tiles(plan, y0 + gy, d, &mut lists);
+        for (k, row) in group.iter_mut().enumerate() {
+            let dr = &d[k * width..(k + 1) * width];
+            fog_row_tiled(scene, plan, y0 + gy + k, dr, row, &lists);
+        }
+    }
+}
+
+/// [`fog_row`] with the tiles' candidate volumes: the packets of tile `j` (the row's
+/// packets `j·TILE_PACKETS ..`) evaluate only `lists.list(j)`. The same packets as
+/// [`fog_row`] (tail included), so the same bits.
+#[inline(never)]
+fn fog_row_tiled<R: RowColour>(
+    scene: &Scene,
+    plan: &FramePlan,
+    y: usize,
+    depth: &[f32],
+    out: &mut R,
+    lists: &TileLists,
+) {
+    let packets = depth.len().div_ceil(8);
+    let mut io = RowIo {
+        plan,
+        row: plan.row(y),
+        depth,
+        out,
+        first: 0,
+    };
+    for j in 0..lists.len() {
+        io.first = j * TILE_PACKETS;
+        let count = (packets - io.first).min(TILE_PACKETS);
+        run_packets::<false, _>(scene, Some(lists.list(j)), count, &mut io);
+    }
 }

@@ -43,12 +43,16 @@
 //! (`tests/height_fog.rs`).
 
 mod check;
+mod controls;
 mod quad;
 pub mod volume;
 
 pub use check::{
     check_sample, condition, tau_interval, tau_tolerance, up_is_axis, up_rounding, SampleCheck,
     EPS32, L_IN_TOLERANCE, T_FLUSH,
+};
+pub use controls::{
+    distance_fog_depth, distance_fog_depth_quad, lobe_weight, scene_sample, SceneSample,
 };
 pub use quad::{quad_inscattering, quad_tau, quad_tau_layers};
 
@@ -232,7 +236,8 @@ pub fn cos_sun(desc: &SceneDesc, dir: DVec3) -> f64 {
 }
 
 /// The fog colour of one layer per channel (seed 001 eq. 21):
-/// Σ_c β_s,c · (p_c(cos θ) · E_sun + L_amb) / Σ_c β_t,c (0 where Σ_c β_t,c = 0).
+/// Σ_c β_s,c · (p_c(cos θ) · E_sun + L_amb) / Σ_c β_t,c (0 where Σ_c β_t,c = 0), plus the
+/// layer's emission.
 pub fn layer_colour(desc: &SceneDesc, layer: &HeightFogLayer, cos_theta: f64) -> [f64; 3] {
     let amb = desc.lighting.ambient.as_dvec3();
     let esun = desc
@@ -248,7 +253,15 @@ pub fn layer_colour(desc: &SceneDesc, layer: &HeightFogLayer, cos_theta: f64) ->
             num[ch] += c.scattering[ch] as f64 * (p * esun[ch] + amb[ch]);
         }
     }
-    [0, 1, 2].map(|ch| if bt[ch] > 0.0 { num[ch] / bt[ch] } else { 0.0 })
+    // Emission is a radiance per unit extinction: it adds to the colour as is.
+    [0, 1, 2].map(|ch| {
+        let e = layer.emission[ch] as f64;
+        if bt[ch] > 0.0 {
+            num[ch] / bt[ch] + e
+        } else {
+            e
+        }
+    })
 }
 
 /// The reference result for one ray.

@@ -204,6 +204,7 @@ fn layer(b: f32, comps: Vec<Component>) -> HeightFogLayer {
     HeightFogLayer {
         base_height: 0.0,
         falloff: b,
+        emission: glam::Vec3::ZERO,
         components: comps,
     }
 }

@@ -86,6 +86,7 @@ fn sweep(
         height_fog: vec![HeightFogLayer {
             base_height: 0.0,
             falloff: b,
+            emission: glam::Vec3::ZERO,
             components: vec![Component {
                 scattering: Vec3::splat(sigma),
                 absorption: Vec3::ZERO,

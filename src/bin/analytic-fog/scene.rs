@@ -33,13 +33,7 @@ fn json_error(name: &str, text: &[u8], e: &serde_json::Error) -> String {
 
 /// `S.json:LINE: field PATH: message` for a scene that does not validate.
 fn scene_error(name: &str, text: &[u8], e: &SceneError) -> String {
-    let field = match e {
-        SceneError::NonFinite { field, .. }
-        | SceneError::Negative { field, .. }
-        | SceneError::ZeroVector { field }
-        | SceneError::OutOfRange { field, .. }
-        | SceneError::Empty { field } => field.as_str(),
-    };
+    let field = e.field();
     match json_line_of(text, field) {
         Some(line) => format!("{name}:{line}: field {e}"),
         None => format!("{name}: field {e}"),

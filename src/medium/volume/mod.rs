@@ -37,6 +37,8 @@
 mod packet;
 pub(crate) mod profile;
 
+#[cfg(test)]
+pub(crate) use packet::may_touch_ray;
 pub(crate) use packet::{clamp_colour, eval_volumes};
 
 use crate::error::SceneError;
@@ -233,8 +235,9 @@ pub(crate) struct VolumePlan {
     pub colour_const: [f32; 3],
     /// For a non-isotropic phase lit by the sun: the phase and albedo · E_sun · T_sun.
     pub colour_sun: Option<(Phase, [f32; 3])>,
-    /// The radius of a sphere about `center` that contains the shape (the Frobenius norm
-    /// of M, times √3 for a box), rounded up: the per-packet culling test.
+    /// The radius of a sphere about `center` that contains the shape (a sphere's radius,
+    /// an ellipsoid's longest semi-axis, a box's half diagonal, the Frobenius norm of M
+    /// for a general affine ball), rounded up: the per-packet culling test.
     pub bound_radius: f32,
 }
 
@@ -247,6 +250,9 @@ pub(crate) struct VolumeSet {
     /// `Scene::without_culling`; it changes no result: a lane that cannot touch a volume
     /// gets exactly 0 from it either way).
     pub no_culling: bool,
+    /// Skip the framebuffer pass's per-tile culling (`crate::pass`), keeping the
+    /// per-packet test: for tests and benchmarks (`Scene::without_tile_culling`).
+    pub no_tile_culling: bool,
 }
 
 impl VolumeSet {
@@ -434,13 +440,29 @@ pub(crate) fn compile(
         let inv64 = aff.m.inverse();
         let inv = [0, 1, 2].map(|r| [0, 1, 2].map(|c| inv64.col(c)[r] as f32));
         let fwd = [0, 1, 2].map(|r| [0, 1, 2].map(|c| aff.m.col(c)[r] as f32));
-        let frob = (0..3)
-            .map(|c| aff.m.col(c).length_squared())
-            .sum::<f64>()
-            .sqrt();
-        let bound = match aff.kind {
-            Kind::Ball => frob,
-            Kind::Cube => frob * 3f64.sqrt(),
+        // The radius of the smallest sphere about the centre that holds the shape: for a
+        // sphere or an ellipsoid (M = R·diag(radii), orthogonal columns) the longest
+        // column; for a box its farthest corner, max |M·s| over s in {±1}³; for a general
+        // affine ball the Frobenius norm (≥ the largest singular value). Each is exact
+        // up to f64 rounding; the margin below covers that.
+        let bound = match (&v.shape, aff.kind) {
+            (Shape::Sphere { .. } | Shape::Ellipsoid { .. }, _) => {
+                (0..3).map(|c| aff.m.col(c).length()).fold(0.0, f64::max)
+            }
+            (_, Kind::Cube) => (0..8)
+                .map(|k| {
+                    let s = DVec3::new(
+                        if k & 1 == 0 { 1.0 } else { -1.0 },
+                        if k & 2 == 0 { 1.0 } else { -1.0 },
+                        if k & 4 == 0 { 1.0 } else { -1.0 },
+                    );
+                    (aff.m * s).length()
+                })
+                .fold(0.0, f64::max),
+            _ => (0..3)
+                .map(|c| aff.m.col(c).length_squared())
+                .sum::<f64>()
+                .sqrt(),
         };
         // Rounded up to f32 and by a margin of its own.
         let bound_radius = (bound * (1.0 + 1e-6)) as f32 * (1.0 + 1e-6);
