@@ -7,7 +7,7 @@
 //! rule `a < b ? a : b` in both, so even NaN inputs give the same bits).
 
 use core::ops::{Add, BitAnd, BitOr, Div, Mul, Not, Sub};
-use wide::{f32x8, i32x8, CmpEq, CmpGe, CmpGt, CmpLe, CmpLt, CmpNe};
+use wide::{f32x8, i32x8, CmpEq, CmpGe, CmpGt, CmpLe, CmpLt};
 
 /// A vector of `f32` lanes (1 or 8) with the operations the kernels need.
 pub trait Lane:
@@ -57,6 +57,8 @@ pub trait Lane:
     fn gt(self, b: Self) -> Self::Mask;
     fn ge(self, b: Self) -> Self::Mask;
     fn eq(self, b: Self) -> Self::Mask;
+    /// Ordered not-equal (`a < b || a > b`): false when either operand is NaN, in both
+    /// widths, so NaN lanes take the same branch in the scalar and 8-lane paths.
     fn ne(self, b: Self) -> Self::Mask;
     /// `m ? a : b`, lane by lane.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
@@ -190,7 +192,11 @@ impl Lane for f32 {
     }
     #[inline(always)]
     fn ne(self, b: Self) -> bool {
-        self != b
+        // Ordered not-equal: false when either is NaN (`!=` is true then; clippy's
+        // double_comparisons suggestion, `!=`, would change exactly that).
+        #[allow(clippy::double_comparisons)]
+        let ne = self < b || self > b;
+        ne
     }
     #[inline(always)]
     fn select(m: bool, a: Self, b: Self) -> Self {
@@ -308,7 +314,8 @@ impl Lane for f32x8 {
     }
     #[inline(always)]
     fn ne(self, b: Self) -> Self {
-        self.cmp_ne(b)
+        // Spelled out: `cmp_ne` is ordered with AVX but unordered (true for NaN) on SSE.
+        self.cmp_lt(b) | self.cmp_gt(b)
     }
     #[inline(always)]
     fn select(m: Self, a: Self, b: Self) -> Self {
