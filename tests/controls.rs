@@ -17,49 +17,8 @@ use analytic_fog::{
 };
 use glam::{DVec3, Vec3};
 
-struct Rng(u64);
-impl Rng {
-    fn new(seed: u64) -> Rng {
-        Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
-    }
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-    fn uni(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.uni()
-    }
-    fn log_range(&mut self, a: f64, b: f64) -> f64 {
-        (a.ln() + (b.ln() - a.ln()) * self.uni()).exp()
-    }
-    fn pick(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
-    fn unit(&mut self) -> Vec3 {
-        loop {
-            let v = Vec3::new(
-                self.range(-1.0, 1.0) as f32,
-                self.range(-1.0, 1.0) as f32,
-                self.range(-1.0, 1.0) as f32,
-            );
-            if v.length() > 0.1 {
-                return v.normalize();
-            }
-        }
-    }
-    fn rgb(&mut self, a: f64, b: f64) -> Vec3 {
-        Vec3::new(
-            self.range(a, b) as f32,
-            self.range(a, b) as f32,
-            self.range(a, b) as f32,
-        )
-    }
-}
+mod common;
+use common::Rng;
 
 /// Results of one batch: τ, T, L_in per ray.
 type Res = Vec<[[f32; 3]; 3]>;
@@ -208,7 +167,7 @@ fn distance_fog_alone_is_bevys_formula() {
         let mut rays = Vec::new();
         for _ in 0..13 {
             let o = rng.rgb(-100.0, 100.0);
-            let d = rng.unit() * rng.log_range(0.01, 100.0) as f32;
+            let d = rng.unit_vec3() * rng.log_range(0.01, 100.0) as f32;
             let t = match rng.pick(6) {
                 0 => 0.0,
                 1 => f32::INFINITY,
@@ -451,7 +410,7 @@ fn controls_against_reference() {
                 rng.range(-10.0, 40.0) as f32,
                 rng.range(-50.0, 50.0) as f32,
             );
-            let unit = rng.unit();
+            let unit = rng.unit_vec3();
             let t = match rng.pick(8) {
                 0 => 0.0,
                 1 => f32::INFINITY,
@@ -552,7 +511,7 @@ fn start_and_cutoff_cut_the_interval() {
             ..SceneDesc::default()
         };
         let o = Vec3::new(0.0, rng.range(-10.0, 30.0) as f32, 0.0);
-        let d = rng.unit() * rng.log_range(0.1, 10.0) as f32;
+        let d = rng.unit_vec3() * rng.log_range(0.1, 10.0) as f32;
         let t = rng.log_range(1.0, 300.0) as f32;
         let a = rng.range(0.0, 100.0) as f32;
         let b = a + rng.range(0.0, 100.0) as f32;
@@ -681,7 +640,7 @@ fn lobe_and_emission() {
     let scene = Scene::new(desc.clone()).unwrap();
     let mut rng = Rng::new(6);
     for _ in 0..500 {
-        let d = rng.unit();
+        let d = rng.unit_vec3();
         let s = scene.eval_ray(Vec3::ZERO, d, 20.0);
         let cos = (d.as_dvec3().normalize()).dot(sun_dir.as_dvec3()).max(0.0);
         let w = cos.powf(8.0);
@@ -714,8 +673,8 @@ fn controls_extreme_rays_no_nan() {
         let scene = Scene::new(desc.clone()).unwrap();
         let mut rays = Vec::new();
         for _ in 0..16 {
-            let o = rng.unit() * [0.0f32, 1.0, 1e4, 1e20, 3e38][rng.pick(5)];
-            let d = rng.unit() * [1e-30f32, 1.0, 1e20, 1e38][rng.pick(4)];
+            let o = rng.unit_vec3() * [0.0f32, 1.0, 1e4, 1e20, 3e38][rng.pick(5)];
+            let d = rng.unit_vec3() * [1e-30f32, 1.0, 1e20, 1e38][rng.pick(4)];
             let t = extremes[rng.pick(extremes.len())];
             rays.push((o, d, t));
         }

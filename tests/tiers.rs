@@ -16,31 +16,8 @@ const FAST_T: f64 = 1e-4;
 /// Relative error of τ the Fast tier adds (φ 3.4e-5, the exponential 1.4e-5, roundings).
 const FAST_TAU: f64 = 1e-4;
 
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-    fn uni(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.uni()
-    }
-    fn log_range(&mut self, a: f64, b: f64) -> f64 {
-        (a.ln() + (b.ln() - a.ln()) * self.uni()).exp()
-    }
-    fn sign(&mut self) -> f64 {
-        if self.next() & 1 == 0 {
-            1.0
-        } else {
-            -1.0
-        }
-    }
-}
+mod common;
+use common::Rng;
 
 fn random_scene(r: &mut Rng, extreme: bool) -> SceneDesc {
     let n = 1 + (r.next() % 3) as usize;

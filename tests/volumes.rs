@@ -31,52 +31,8 @@ const C_MAX: f64 = 32.0;
 // ---------------------------------------------------------------------------------------
 // A small deterministic generator (the proptest strategies feed it a seed).
 
-struct Rng(u64);
-impl Rng {
-    fn new(seed: u64) -> Rng {
-        Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
-    }
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-    fn uni(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.uni()
-    }
-    fn log_range(&mut self, a: f64, b: f64) -> f64 {
-        (a.ln() + (b.ln() - a.ln()) * self.uni()).exp()
-    }
-    fn unit(&mut self) -> DVec3 {
-        loop {
-            let v = DVec3::new(
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-            );
-            let l = v.length();
-            if l > 0.1 && l <= 1.0 {
-                return v / l;
-            }
-        }
-    }
-    fn in_ball(&mut self) -> DVec3 {
-        self.unit() * self.uni().cbrt()
-    }
-    fn quat(&mut self) -> Quat {
-        let v = [0; 4].map(|_| self.range(-1.0, 1.0) as f32);
-        let q = Quat::from_xyzw(v[0], v[1], v[2], v[3]);
-        if q.length() < 0.1 {
-            Quat::IDENTITY
-        } else {
-            q.normalize()
-        }
-    }
-}
+mod common;
+use common::Rng;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum ShapeKind {
