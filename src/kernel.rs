@@ -74,7 +74,8 @@ fn layer_colour<L: Lane>(layer: &LayerPlan, sun: Option<[f32; 3]>, dir: &[L; 3])
 #[inline(always)]
 #[allow(clippy::type_complexity)]
 fn packet_geometry<L: Lane, const AXIS: usize, const UNIT: bool>(
-    scene: &Scene,
+    up: [f32; 3],
+    sun_dir: Option<[f32; 3]>,
     p: &PacketIn<L>,
     want_l: bool,
 ) -> (RayGeom<L>, (L, L), [L; 3], Option<[f32; 3]>) {
@@ -93,7 +94,6 @@ fn packet_geometry<L: Lane, const AXIS: usize, const UNIT: bool>(
     let (y, y_s, u, u_shift) = if AXIS < 3 {
         (p.o[AXIS], p.o[AXIS] * L::splat(TWO_M64), p.d[AXIS], zero)
     } else {
-        let up = scene.up.to_array();
         let up_s = up.map(|c| c * TWO_M64);
         let u = crate::light::dot3(dir, up) * norm.0;
         (
@@ -104,11 +104,7 @@ fn packet_geometry<L: Lane, const AXIS: usize, const UNIT: bool>(
         )
     };
     let geom = RayGeom::new(y, y_s, u, u_shift, p.t, norm);
-    let sun = if want_l {
-        scene.sun_dir.map(|s| s.to_array())
-    } else {
-        None
-    };
+    let sun = if want_l { sun_dir } else { None };
 
     (geom, norm, dir, sun)
 }
@@ -117,7 +113,48 @@ fn packet_geometry<L: Lane, const AXIS: usize, const UNIT: bool>(
 /// [`eval_packet`] handles inline; everything else goes to [`eval_general`].
 #[inline(always)]
 fn is_single_layer(scene: &Scene) -> bool {
-    scene.layers.len() == 1 && scene.volumes.is_empty() && !scene.has_controls()
+    scene.layers.len() == 1
+        && scene.layers[0].colour_sun.len() <= MAX_PHASES
+        && scene.volumes.is_empty()
+        && !scene.has_controls()
+}
+
+/// The most distinct directional phase functions the single-layer kernel holds in
+/// registers (more go to the general kernel).
+const MAX_PHASES: usize = 4;
+
+/// The single-layer kernel's constants, copied out of the scene once per batch into a
+/// local, so that the packet loop keeps them in registers. Read through `&Scene`, they
+/// were reloaded and re-tested on every packet (LLVM cannot prove that the output stores
+/// do not alias the scene's heap data): 33 instead of 24 instructions per ray against a
+/// hand-written kernel (`benches/plan.rs`).
+#[derive(Clone, Copy)]
+pub(crate) struct Single {
+    layer: crate::scene::LayerCore,
+    phases: [(crate::light::Phase, [f32; 3]); MAX_PHASES],
+    n_phases: usize,
+    up: [f32; 3],
+    sun: Option<[f32; 3]>,
+}
+
+impl Single {
+    /// `None` unless [`is_single_layer`].
+    #[inline(always)]
+    pub(crate) fn of(scene: &Scene) -> Option<Single> {
+        if !is_single_layer(scene) {
+            return None;
+        }
+        let l = &scene.layers[0];
+        let mut phases = [(crate::light::Phase::Isotropic, [0.0; 3]); MAX_PHASES];
+        phases[..l.colour_sun.len()].copy_from_slice(&l.colour_sun);
+        Some(Single {
+            layer: l.core,
+            phases,
+            n_phases: l.colour_sun.len(),
+            up: scene.up.to_array(),
+            sun: scene.sun_dir.map(|s| s.to_array()),
+        })
+    }
 }
 
 /// One height fog layer (see [`is_single_layer`]), inlined into the batch loop.
@@ -130,7 +167,7 @@ pub(crate) fn eval_packet<
     const WANT_L: bool,
     const FAST: bool,
 >(
-    scene: &Scene,
+    single: &Single,
     p: &PacketIn<L>,
 ) -> PacketOut<L> {
     // The tier's transmittance (see `Tier`).
@@ -142,12 +179,11 @@ pub(crate) fn eval_packet<
         trans: [one; 3],
         insc: [zero; 3],
     };
-    let layers = &scene.layers;
-    debug_assert!(is_single_layer(scene));
-    let (geom, _norm, dir, sun) = packet_geometry::<L, AXIS, UNIT>(scene, p, WANT_L);
+    let (geom, _norm, dir, sun) =
+        packet_geometry::<L, AXIS, UNIT>(single.up, single.sun, p, WANT_L);
 
     {
-        let layer = &layers[0];
+        let layer = &single.layer;
         let (gm, ge) = layer_depth::<L, FAST>(layer, &geom);
         let grey = layer.sigma[0] == layer.sigma[1] && layer.sigma[1] == layer.sigma[2];
         if grey {
@@ -180,7 +216,15 @@ pub(crate) fn eval_packet<
             }
         }
         if WANT_L {
-            let c = layer_colour(layer, sun, &dir);
+            let mut c = layer.colour_const.map(L::splat);
+            if let Some(s) = sun {
+                for (phase, k) in &single.phases[..single.n_phases] {
+                    let p = phase.eval(dir, s);
+                    for ch in 0..3 {
+                        c[ch] = p.mul_add(L::splat(k[ch]), c[ch]);
+                    }
+                }
+            }
             for ch in 0..3 {
                 out.insc[ch] = clamp_colour(c[ch]) * (one - out.trans[ch]);
             }
@@ -229,7 +273,7 @@ fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
 ) -> PacketOut<L> {
     let p = &p;
     // The tier (see `Tier`): a predictable branch per call.
-    let layer_depth = |layer: &LayerPlan, geom: &RayGeom<L>| {
+    let layer_depth = |layer: &crate::scene::LayerCore, geom: &RayGeom<L>| {
         if fast {
             layer_depth::<L, true>(layer, geom)
         } else {
@@ -237,7 +281,12 @@ fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
         }
     };
     let exp_neg = |x: L| if fast { exp_neg_fast(x) } else { exp_neg(x) };
-    let (geom, norm, dir, sun) = packet_geometry::<L, AXIS, UNIT>(scene, p, want_l);
+    let (geom, norm, dir, sun) = packet_geometry::<L, AXIS, UNIT>(
+        scene.up.to_array(),
+        scene.sun_dir.map(|s| s.to_array()),
+        p,
+        want_l,
+    );
     let zero = L::splat(0.0);
     let one = L::splat(1.0);
     // Start and cutoff distances (`FogLimits`): every medium sees the ray cut to
@@ -261,8 +310,12 @@ fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
         } else {
             crate::light::dot3(dir, scene.up.to_array())
         };
-        let y = u.mul_add(start, geom.y);
-        let y_s = u.mul_add(L::splat(limits.start * TWO_M64), geom.y_s);
+        // |u| ≤ 1 for a unit direction; clamped so that a batch declared unit whose
+        // directions are not (a broken promise, unspecified but never NaN) cannot
+        // overflow the scaled height (found by fuzz/volumes). NaN stays NaN.
+        let uc = u.clamp(L::splat(-1.0), one);
+        let y = uc.mul_add(start, geom.y);
+        let y_s = uc.mul_add(L::splat(limits.start * TWO_M64), geom.y_s);
         let g = RayGeom::new(y, y_s, u, zero, len, (one, zero));
         // The volumes take the cut ray itself. Where the start point leaves the f32 range
         // the ray moves away from every volume in that coordinate (it overflowed because
@@ -274,7 +327,8 @@ fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
         cut = PacketIn {
             o: [0, 1, 2].map(|c| L::select(fin, oc[c], p.o[c])),
             d: dir,
-            t: L::select(fin, len, zero),
+            // zero.min(len): 0, or NaN for an invalid ray (found by fuzz/volumes).
+            t: L::select(fin, len, zero.min(len)),
         };
         (&cut, g, (one, zero))
     } else {
@@ -436,8 +490,20 @@ fn load<L: Lane>(s: &[f32], i: usize, wanted: bool) -> L {
     }
 }
 
+/// An output cut to its first `full` elements (so that the packet loop's stores need no
+/// bounds checks), borrowed out of `Outputs` into a local.
 #[inline(always)]
-fn store<L: Lane>(v: [L; 3], dst: &mut Option<crate::ray::RgbSlices<'_>>, i: usize) {
+#[allow(clippy::type_complexity)]
+fn cut_rgb<'b>(
+    o: &'b mut Option<crate::ray::RgbSlices<'_>>,
+    full: usize,
+) -> Option<[&'b mut [f32]; 3]> {
+    o.as_mut()
+        .map(|[a, b, c]| [&mut a[..full], &mut b[..full], &mut c[..full]])
+}
+
+#[inline(always)]
+fn store<L: Lane>(v: [L; 3], dst: &mut Option<[&mut [f32]; 3]>, i: usize) {
     if let Some(d) = dst {
         for ch in 0..3 {
             v[ch].store(&mut d[ch][i..i + L::LANES]);
@@ -468,6 +534,12 @@ fn run<
     let t = &rays.t[..full];
     // The choice between the single-layer kernel (inlined: no call, no spills) and the
     // general one (out of line) is made once per batch, not per packet.
+    let single = Single::of(scene);
+    let (mut o_tau, mut o_tr, mut o_li) = (
+        cut_rgb(&mut out.tau, full),
+        cut_rgb(&mut out.transmittance, full),
+        cut_rgb(&mut out.inscattering, full),
+    );
     macro_rules! packets {
         ($f:expr) => {{
             let mut i = 0;
@@ -486,18 +558,19 @@ fn run<
                     t: L::load(&t[i..i + L::LANES]),
                 };
                 let r = $f(p);
-                store(r.tau, &mut out.tau, i);
-                store(r.trans, &mut out.transmittance, i);
-                store(r.insc, &mut out.inscattering, i);
+                store(r.tau, &mut o_tau, i);
+                store(r.trans, &mut o_tr, i);
+                store(r.insc, &mut o_li, i);
                 i += L::LANES;
             }
         }};
     }
-    if is_single_layer(scene) {
-        packets!(|p: PacketIn<L>| eval_packet::<L, AXIS, UNIT, WANT_T, WANT_L, FAST>(scene, &p));
+    if let Some(single) = &single {
+        packets!(|p: PacketIn<L>| eval_packet::<L, AXIS, UNIT, WANT_T, WANT_L, FAST>(single, &p));
     } else {
         packets!(|p: PacketIn<L>| eval_general::<L, AXIS, UNIT>(scene, p, WANT_T, WANT_L, FAST));
     }
+    let _ = (o_tau, o_tr, o_li);
     if full < n {
         // The tail: pad to one 8-lane packet with a harmless ray (t = 0), evaluate, and
         // store the live lanes. Same instructions as a full packet, so the same bits.
@@ -511,8 +584,8 @@ fn run<
         let d = [0, 1, 2].map(|c| f32x8::new(pad(rays.d[c], 1.0)));
         let t = f32x8::new(pad(rays.t, 0.0));
         let p = PacketIn { o, d, t };
-        let r = if is_single_layer(scene) {
-            eval_packet::<f32x8, AXIS, UNIT, WANT_T, WANT_L, FAST>(scene, &p)
+        let r = if let Some(single) = &single {
+            eval_packet::<f32x8, AXIS, UNIT, WANT_T, WANT_L, FAST>(single, &p)
         } else {
             eval_general::<f32x8, AXIS, UNIT>(scene, p, WANT_T, WANT_L, FAST)
         };
@@ -633,10 +706,10 @@ pub(crate) fn run_packets<const UNIT: bool, S: PacketIo>(
         count: usize,
         io: &mut S,
     ) {
-        if is_single_layer(scene) {
+        if let Some(single) = Single::of(scene) {
             for i in 0..count {
                 let p = io.make(i);
-                let r = eval_packet::<f32x8, AXIS, UNIT, true, true, FAST>(scene, &p);
+                let r = eval_packet::<f32x8, AXIS, UNIT, true, true, FAST>(&single, &p);
                 io.take(i, &r);
             }
         } else {

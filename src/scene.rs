@@ -252,9 +252,31 @@ impl Split {
     }
 }
 
-/// One layer's compiled constants.
+/// One layer's compiled constants: the scalars ([`LayerCore`], `Copy`, so that a kernel
+/// can hold them in locals) and the sun's phase terms.
 #[derive(Clone, Debug)]
 pub(crate) struct LayerPlan {
+    pub core: LayerCore,
+    /// Per non-isotropic component: its phase function and β_s · E_sun / β_t.
+    pub colour_sun: Vec<(Phase, [f32; 3])>,
+}
+
+impl core::ops::Deref for LayerPlan {
+    type Target = LayerCore;
+    fn deref(&self) -> &LayerCore {
+        &self.core
+    }
+}
+
+impl core::ops::DerefMut for LayerPlan {
+    fn deref_mut(&mut self) -> &mut LayerCore {
+        &mut self.core
+    }
+}
+
+/// A layer's scalar constants.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LayerCore {
     /// Base height along the (sign-folded) up axis.
     pub h0: f32,
     /// Falloff along the (sign-folded) up axis.
@@ -273,8 +295,6 @@ pub(crate) struct LayerPlan {
     /// Fog colour terms that do not depend on the ray direction:
     /// Σ β_s · (L_amb + E_sun / 4π for isotropic components) / β_t.
     pub colour_const: [f32; 3],
-    /// Per non-isotropic component: its phase function and β_s · E_sun / β_t.
-    pub colour_sun: Vec<(Phase, [f32; 3])>,
 }
 
 /// A validated, compiled scene. Build it with [`Scene::new`]; it cannot be made invalid
@@ -529,13 +549,15 @@ impl Scene {
             let b = layer.falloff * up_sign;
             let h0 = layer.base_height * up_sign;
             layers.push(LayerPlan {
-                h0,
-                b,
-                b_split: Split::of(b),
-                sigma: sigma_t.map(Split::of),
-                shared_scale: shared_scale(sigma_t),
-                sigma_t,
-                colour_const: colour_const.map(|v| v as f32),
+                core: LayerCore {
+                    h0,
+                    b,
+                    b_split: Split::of(b),
+                    sigma: sigma_t.map(Split::of),
+                    shared_scale: shared_scale(sigma_t),
+                    sigma_t,
+                    colour_const: colour_const.map(|v| v as f32),
+                },
                 colour_sun,
             });
         }

@@ -1,6 +1,6 @@
 //! Fuzzes the fog-volume kernels with arbitrary f32 bit patterns for the volumes'
-//! parameters (shapes, profiles, coefficients, cut-outs), an optional height fog layer and
-//! sun, and a batch of rays.
+//! parameters (shapes, profiles, coefficients, cut-outs), an optional height fog layer,
+//! sun, start/cutoff distance and maximum opacity, and a batch of rays.
 //!
 //! The scene is built through `Scene::new` (inputs it rejects are skipped); the batch is
 //! evaluated with `evaluate` (8 lanes), `evaluate_scalar` and `evaluate_par`, and checked
@@ -145,12 +145,38 @@ fn scene_from(inp: &mut Input) -> SceneDesc {
     } else {
         None
     };
-    SceneDesc {
+    let mut desc = SceneDesc {
         height_fog,
         lighting: Lighting { ambient, sun },
         volumes,
         ..SceneDesc::default()
+    };
+    if flags & 0x40 != 0 {
+        // Start/cutoff distances (the ray is cut before the volumes see it) and a maximum
+        // opacity.
+        let pos = |inp: &mut Input| {
+            let v = inp.f32();
+            if raw {
+                v
+            } else {
+                v.abs()
+            }
+        };
+        let c = inp.byte();
+        desc.limits.start_distance = pos(inp);
+        if c & 1 != 0 {
+            desc.limits.cutoff_distance = Some(pos(inp));
+        }
+        if c & 2 != 0 {
+            let m = inp.f32();
+            desc.limits.max_opacity = if raw {
+                m
+            } else {
+                (m.to_bits() & 0xff_ffff) as f32 / 16_777_216.0
+            };
+        }
     }
+    desc
 }
 
 fn run(scene: &Scene, rays: &Rays, mode: u8, n: usize) -> Vec<Vec<f32>> {
@@ -225,11 +251,23 @@ fuzz_target!(|data: &[u8]| {
         for ch in 0..3 {
             let (tau, tr, li) = (x8[ch][i], x8[3 + ch][i], x8[6 + ch][i]);
             if valid {
-                assert!(tau >= 0.0, "τ {tau} for ray {i}");
-                assert!((0.0..=1.0).contains(&tr), "T {tr} for ray {i}");
-                assert!(li >= 0.0, "L_in {li} for ray {i}");
+                let ctx = || {
+                    format!(
+                        "ray {i} {:?} unit {unit}; {:?}",
+                        [ox[i], oy[i], oz[i], dx[i], dy[i], dz[i], t[i]],
+                        scene.desc()
+                    )
+                };
+                assert!(tau >= 0.0, "τ {tau}; {}", ctx());
+                assert!((0.0..=1.0).contains(&tr), "T {tr}; {}", ctx());
+                assert!(li >= 0.0, "L_in {li}; {}", ctx());
             } else if additive {
-                assert!(tau.is_nan(), "invalid ray {i} gave τ {tau}");
+                assert!(
+                    tau.is_nan(),
+                    "invalid ray {i} gave τ {tau}: {:?} unit {unit}; {:?}",
+                    [ox[i], oy[i], oz[i], dx[i], dy[i], dz[i], t[i]],
+                    scene.desc()
+                );
             }
         }
     }

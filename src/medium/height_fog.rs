@@ -32,7 +32,7 @@
 //! exponent are beyond the scaled f32 range).
 
 use crate::math::{exp_split, exp_split_fast, exprel_neg, exprel_neg_fast, frexp, Lane};
-use crate::scene::LayerPlan;
+use crate::scene::LayerCore;
 
 /// Per-ray quantities shared by all layers.
 #[derive(Clone, Copy)]
@@ -137,7 +137,7 @@ pub(crate) fn direction_norm<L: Lane>(d: [L; 3]) -> ((L, L), [L; 3]) {
 ///
 /// `FAST`: the Fast tier's φ and exponential (`math::fast`, relative errors 3.4e-5 and
 /// 1.4e-5 instead of 1.7 and 1.1 ULP); the range handling is the same.
-pub(crate) fn layer_depth<L: Lane, const FAST: bool>(layer: &LayerPlan, g: &RayGeom<L>) -> (L, L) {
+pub(crate) fn layer_depth<L: Lane, const FAST: bool>(layer: &LayerCore, g: &RayGeom<L>) -> (L, L) {
     if layer.b == 0.0 {
         // Homogeneous layer: G = |d| · t.
         return (g.n_m * g.t_m + g.guard, g.n_e + g.t_e);
