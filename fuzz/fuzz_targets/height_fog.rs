@@ -44,8 +44,8 @@
 #![no_main]
 
 use analytic_fog::{
-    Component, DistanceFog, Falloff, HeightFogLayer, Lighting, Lobe, Outputs, Phase, Rays,
-    Scene, SceneDesc, Sun, Tier,
+    Component, DistanceFog, Falloff, HeightFogLayer, Lighting, Lobe, Outputs, Phase, Rays, Scene,
+    SceneDesc, Sun, Tier,
 };
 use glam::Vec3;
 use libfuzzer_sys::fuzz_target;
