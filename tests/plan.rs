@@ -286,15 +286,18 @@ fn lighting() -> BoxedStrategy<Lighting> {
         .boxed()
 }
 
-/// The scenes of the plan property: 1 to 3 layers, 0 to 4 volumes, every up vector,
+/// Random scenes: `layers` height fog layers, `volumes` fog volumes, every up vector,
 /// lit or not, one in eight in the Fast tier.
 #[allow(clippy::needless_update)] // keeps compiling when SceneDesc gains a field
-fn plan_scene() -> BoxedStrategy<SceneDesc> {
+fn scene_strategy(
+    layers: std::ops::RangeInclusive<usize>,
+    volumes: std::ops::RangeInclusive<usize>,
+) -> BoxedStrategy<SceneDesc> {
     (
         up_vector(),
-        prop::collection::vec(layer(), 1..=3),
+        prop::collection::vec(layer(), layers),
         lighting(),
-        prop::collection::vec(volume(), 0..=4),
+        prop::collection::vec(volume(), volumes),
         prop::bool::weighted(0.125),
     )
         .prop_map(|(up, height_fog, lighting, volumes, fast)| SceneDesc {
@@ -306,6 +309,11 @@ fn plan_scene() -> BoxedStrategy<SceneDesc> {
             ..SceneDesc::default()
         })
         .boxed()
+}
+
+/// The scenes of the plan property: 1 to 3 layers, 0 to 4 volumes.
+fn plan_scene() -> BoxedStrategy<SceneDesc> {
+    scene_strategy(1..=3, 0..=4)
 }
 
 // ---------------------------------------------------------------------------------------
@@ -993,24 +1001,8 @@ proptest! {
 // 2. Culling changes no result
 
 /// Scenes for the culling property: 1 to 8 volumes (cut-outs among them), 0 to 2 layers.
-#[allow(clippy::needless_update)] // keeps compiling when SceneDesc gains a field
 fn culling_scene() -> BoxedStrategy<SceneDesc> {
-    (
-        up_vector(),
-        prop::collection::vec(layer(), 0..=2),
-        lighting(),
-        prop::collection::vec(volume(), 1..=8),
-        prop::bool::weighted(0.125),
-    )
-        .prop_map(|(up, height_fog, lighting, volumes, fast)| SceneDesc {
-            up,
-            height_fog,
-            lighting,
-            volumes,
-            tier: if fast { Tier::Fast } else { Tier::Accurate },
-            ..SceneDesc::default()
-        })
-        .boxed()
+    scene_strategy(0..=2, 1..=8)
 }
 
 proptest! {
