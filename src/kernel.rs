@@ -10,7 +10,7 @@
 use crate::math::{exp_neg, exp_neg_fast, ldexp, pow2_pair, Lane};
 use crate::medium::distance::DistancePlan;
 use crate::medium::height_fog::{direction_norm, layer_depth, RayGeom, TWO_M64};
-use crate::medium::volume::clamp_colour;
+use crate::medium::volume::{clamp_colour, Entry};
 use crate::ray::{Outputs, Rays};
 use crate::scene::{LayerPlan, Scene, UpAxis};
 use wide::f32x8;
@@ -252,8 +252,9 @@ fn eval_general<L: Lane, const AXIS: usize, const UNIT: bool>(
     want_t: bool,
     want_l: bool,
     fast: bool,
+    scratch: &mut Vec<Entry<L>>,
 ) -> PacketOut<L> {
-    eval_general_with::<L, AXIS, UNIT>(scene, p, want_t, want_l, fast, None)
+    eval_general_with::<L, AXIS, UNIT>(scene, p, want_t, want_l, fast, None, scratch)
 }
 
 /// [`eval_general`] with the additive fog volumes to consider: `volumes` lists indices
@@ -261,6 +262,10 @@ fn eval_general<L: Lane, const AXIS: usize, const UNIT: bool>(
 /// pass passes each tile's candidates (`crate::pass`); a volume may be left out only if
 /// the per-packet test rejects it for every ray the list is used with, so that the result
 /// is the same bits as with `None`.
+///
+/// `scratch`: the list of the volumes a packet touches, for the ordered composition
+/// (`Composition::Ordered`); owned by the caller so that it is allocated once per batch,
+/// not per packet. Cleared here before use.
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
 fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
@@ -270,6 +275,7 @@ fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
     want_l: bool,
     fast: bool,
     volumes: Option<&[u32]>,
+    scratch: &mut Vec<Entry<L>>,
 ) -> PacketOut<L> {
     let p = &p;
     // The tier (see `Tier`): a predictable branch per call.
@@ -359,16 +365,19 @@ fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
     // Fog volumes (medium::volume): their τ adds to the layers'; their colour joins the
     // τ-weighted mix below (the same approximation as between layers).
     let tau_h = out.tau;
+    let ordered = scene.ordered && want_l;
+    scratch.clear();
     let vol = if scene.volumes.is_empty() {
         None
     } else {
         let v = if want_l {
+            let list = if ordered { Some(&mut *scratch) } else { None };
             crate::medium::volume::eval_volumes::<L, UNIT, true>(
-                scene, &p.o, &p.d, p.t, norm, dir, sun, volumes,
+                scene, &p.o, &p.d, p.t, norm, dir, sun, volumes, list,
             )
         } else {
             crate::medium::volume::eval_volumes::<L, UNIT, false>(
-                scene, &p.o, &p.d, p.t, norm, dir, sun, volumes,
+                scene, &p.o, &p.d, p.t, norm, dir, sun, volumes, None,
             )
         };
         for ch in 0..3 {
@@ -407,6 +416,8 @@ fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
     if want_l {
         let mut num = [zero; 3];
         let mut den = [zero; 3];
+        // The colour of the media other than volumes, for the ordered composition.
+        let mut c_bg = [zero; 3];
         for layer in layers {
             let (gm, ge) = layer_depth(layer, geom);
             let c = layer_colour(layer, sun, dir);
@@ -426,11 +437,15 @@ fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
             }
             let colour = clamp_colour(colour);
             let colour = match &vol {
-                Some(v) => v.mix(ch, colour, tau_h[ch]),
-                None => colour,
+                // Ordered: the volumes are added front to back below.
+                Some(v) if !ordered => v.mix(ch, colour, tau_h[ch]),
+                _ => colour,
             };
             out.insc[ch] = match &dist_fog {
-                None => colour * (one - out.trans[ch]),
+                None => {
+                    c_bg[ch] = colour;
+                    colour * (one - out.trans[ch])
+                }
                 Some((f, d, len_f)) => {
                     let c_d = clamp_colour(L::splat(f.colour[ch]) + lobe_c);
                     // Atmospheric fog's in-scattering is not colour · (1 − T): its share
@@ -456,9 +471,43 @@ fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
                         }
                         _ => zero,
                     };
+                    c_bg[ch] = colour;
                     colour * (one - out.trans[ch]) + extra
                 }
             };
+        }
+        if ordered && !scratch.is_empty() {
+            let unit_geom = if limits.interval {
+                *geom
+            } else {
+                // The height fog along the unit direction from the ray's origin (the
+                // entry points are world distances).
+                let u = if AXIS < 3 {
+                    dir[AXIS]
+                } else {
+                    crate::light::dot3(*dir, scene.up.to_array())
+                };
+                let g = RayGeom::new(geom.y, geom.y_s, u, zero, zero, (one, zero));
+                RayGeom {
+                    guard: geom.guard,
+                    ..g
+                }
+            };
+            let s_a = if limits.interval { limits.start } else { 0.0 };
+            let d = ordered_volumes(
+                scratch,
+                layers,
+                &unit_geom,
+                dist_fog.as_ref().map(|(f, _, _)| (*f, s_a)),
+                c_bg,
+                fast,
+            );
+            for ch in 0..3 {
+                // Positive and negative terms summed apart and clamped, so that no
+                // ∞ − ∞ can arise; the light is ≥ 0 (NaN stays NaN).
+                let sum = L::splat(f32::MAX).min(out.insc[ch] + d.0[ch]);
+                out.insc[ch] = zero.max(sum - L::splat(f32::MAX).min(d.1[ch]));
+            }
         }
     }
     // Maximum opacity: the integration stops where 1 − T reaches it (see `FogLimits`).
@@ -479,6 +528,71 @@ fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
         }
     }
     out
+}
+
+/// The ordered composition's correction to `c_bg · (1 − T)` (see `Composition`):
+/// Σ_k (c_k − c_bg) · (1 − T_k) · T(0 → s_k), returned as the sums of its positive and
+/// of its negative terms per channel (each ≥ 0). T(0 → s_k) is the transmittance of the
+/// height fog layers (`geom`: the ray along its unit direction), of the distance fog (over
+/// [s_a, s_a + s_k]) and of the volumes the ray enters before s_k (ties broken by the
+/// volumes' order in the scene, so that each pair is counted once). O(m²) in the number of
+/// entries, without sorting (each lane has its own order).
+#[inline(always)]
+fn ordered_volumes<L: Lane>(
+    entries: &[Entry<L>],
+    layers: &[LayerPlan],
+    geom: &RayGeom<L>,
+    distance: Option<(&crate::medium::distance::DistanceFogPlan, f32)>,
+    c_bg: [L; 3],
+    fast: bool,
+) -> ([L; 3], [L; 3]) {
+    let zero = L::splat(0.0);
+    let one = L::splat(1.0);
+    let exp_neg = |x: L| if fast { exp_neg_fast(x) } else { exp_neg(x) };
+    let mut pos = [zero; 3];
+    let mut neg = [zero; 3];
+    for (k, ek) in entries.iter().enumerate() {
+        // The optical depth in front of the entry point: volumes that start earlier...
+        let mut front = [zero; 3];
+        for (j, ej) in entries.iter().enumerate() {
+            if j == k {
+                continue;
+            }
+            let before = if j < k { ej.s.le(ek.s) } else { ej.s.lt(ek.s) };
+            for ch in 0..3 {
+                front[ch] = front[ch] + L::select(before, ej.tau[ch], zero);
+            }
+        }
+        // ...and the height fog from the start to the entry point.
+        let (t_m, t_e) = crate::math::frexp(ek.s);
+        let g = RayGeom { t_m, t_e, ..*geom };
+        for layer in layers {
+            let (gm, ge) = if fast {
+                layer_depth::<L, true>(layer, &g)
+            } else {
+                layer_depth::<L, false>(layer, &g)
+            };
+            for ch in 0..3 {
+                let s = layer.sigma[ch];
+                front[ch] = front[ch] + ldexp(gm * L::splat(s.m), ge + L::splat(s.e));
+            }
+        }
+        let t_d = match distance {
+            Some((f, s_a)) => {
+                let (lm, le) = crate::math::frexp(ek.s);
+                crate::medium::distance::depth(f, s_a, lm, le, ek.s, exp_neg).trans
+            }
+            None => [one; 3],
+        };
+        for ch in 0..3 {
+            let att = exp_neg(front[ch]) * t_d[ch];
+            let w = (one - exp_neg(ek.tau[ch])) * att;
+            let dc = ek.colour[ch] - c_bg[ch];
+            pos[ch] = w.mul_add(dc.max(zero), pos[ch]);
+            neg[ch] = w.mul_add(dc.neg().max(zero), neg[ch]);
+        }
+    }
+    (pos, neg)
 }
 
 #[inline(always)]
@@ -565,10 +679,18 @@ fn run<
             }
         }};
     }
+    let mut scratch = Vec::new();
     if let Some(single) = &single {
         packets!(|p: PacketIn<L>| eval_packet::<L, AXIS, UNIT, WANT_T, WANT_L, FAST>(single, &p));
     } else {
-        packets!(|p: PacketIn<L>| eval_general::<L, AXIS, UNIT>(scene, p, WANT_T, WANT_L, FAST));
+        packets!(|p: PacketIn<L>| eval_general::<L, AXIS, UNIT>(
+            scene,
+            p,
+            WANT_T,
+            WANT_L,
+            FAST,
+            &mut scratch
+        ));
     }
     let _ = (o_tau, o_tr, o_li);
     if full < n {
@@ -587,7 +709,7 @@ fn run<
         let r = if let Some(single) = &single {
             eval_packet::<f32x8, AXIS, UNIT, WANT_T, WANT_L, FAST>(single, &p)
         } else {
-            eval_general::<f32x8, AXIS, UNIT>(scene, p, WANT_T, WANT_L, FAST)
+            eval_general::<f32x8, AXIS, UNIT>(scene, p, WANT_T, WANT_L, FAST, &mut Vec::new())
         };
         let put = |v: [f32x8; 3], dst: &mut Option<crate::ray::RgbSlices<'_>>| {
             if let Some(d) = dst {
@@ -713,9 +835,18 @@ pub(crate) fn run_packets<const UNIT: bool, S: PacketIo>(
                 io.take(i, &r);
             }
         } else {
+            let mut scratch = Vec::new();
             for i in 0..count {
                 let p = io.make(i);
-                let r = eval_general_with::<f32x8, AXIS, UNIT>(scene, p, true, true, FAST, volumes);
+                let r = eval_general_with::<f32x8, AXIS, UNIT>(
+                    scene,
+                    p,
+                    true,
+                    true,
+                    FAST,
+                    volumes,
+                    &mut scratch,
+                );
                 io.take(i, &r);
             }
         }
@@ -753,6 +884,7 @@ fn run_unspecialized(scene: &Scene, rays: &Rays<'_>, out: &mut Outputs<'_>) {
     let fast = scene.tier == crate::Tier::Fast;
     let n = rays.len();
     let mut i = 0;
+    let mut scratch = Vec::new();
     while i < n {
         let m = (n - i).min(8);
         let pad = |s: &[f32], fill: f32| {
@@ -765,7 +897,7 @@ fn run_unspecialized(scene: &Scene, rays: &Rays<'_>, out: &mut Outputs<'_>) {
             d: [0, 1, 2].map(|c| pad(rays.d[c], 1.0)),
             t: pad(rays.t, 0.0),
         };
-        let r = eval_general::<f32x8, GENERAL, false>(scene, p, true, true, fast);
+        let r = eval_general::<f32x8, GENERAL, false>(scene, p, true, true, fast, &mut scratch);
         for (v, dst) in [
             (r.tau, &mut out.tau),
             (r.trans, &mut out.transmittance),

@@ -43,6 +43,11 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
+//! ## Builder
+//! [`SceneBuilder`] builds the same [`SceneDesc`] fluently
+//! (`SceneBuilder::new().layer(..).sun(..).build()?`); `build` runs [`Scene::new`], so its
+//! errors name the same fields as the JSON loader's.
+//!
 //! ## Framebuffer pass
 //! [`Scene::fog_pass`] fogs a renderer's frame in place from a [`pass::Camera`], a depth
 //! buffer and a colour buffer (RGB, RGBA or planar), 8 pixels at a time and in parallel;
@@ -66,6 +71,7 @@
 // the digits of their derivation.
 #![allow(clippy::needless_range_loop, clippy::excessive_precision)]
 
+mod builder;
 mod error;
 mod kernel;
 pub mod light;
@@ -80,12 +86,15 @@ mod scene;
 #[cfg(feature = "serde")]
 mod serde_rgb;
 
+pub use builder::SceneBuilder;
 pub use error::{BatchError, PassError, SceneError};
 pub use light::{Lobe, Phase};
 pub use medium::distance::{DistanceFog, Falloff};
 pub use medium::volume::{Profile, Shape, Volume, MAX_CUTS};
 pub use ray::{Outputs, Rays, RgbSlices};
-pub use scene::{Component, FogLimits, HeightFogLayer, Lighting, Scene, SceneDesc, Sun, Tier};
+pub use scene::{
+    Component, Composition, FogLimits, HeightFogLayer, Lighting, Scene, SceneDesc, Sun, Tier,
+};
 
 use glam::Vec3;
 use kernel::Width;

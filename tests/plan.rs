@@ -287,7 +287,7 @@ fn lighting() -> BoxedStrategy<Lighting> {
 }
 
 /// Random scenes: `layers` height fog layers, `volumes` fog volumes, every up vector,
-/// lit or not, one in eight in the Fast tier.
+/// lit or not, one in eight in the Fast tier, half with the ordered composition.
 #[allow(clippy::needless_update)] // keeps compiling when SceneDesc gains a field
 fn scene_strategy(
     layers: std::ops::RangeInclusive<usize>,
@@ -299,15 +299,23 @@ fn scene_strategy(
         lighting(),
         prop::collection::vec(volume(), volumes),
         prop::bool::weighted(0.125),
+        prop::bool::weighted(0.5),
     )
-        .prop_map(|(up, height_fog, lighting, volumes, fast)| SceneDesc {
-            up,
-            height_fog,
-            lighting,
-            volumes,
-            tier: if fast { Tier::Fast } else { Tier::Accurate },
-            ..SceneDesc::default()
-        })
+        .prop_map(
+            |(up, height_fog, lighting, volumes, fast, ordered)| SceneDesc {
+                up,
+                height_fog,
+                lighting,
+                volumes,
+                tier: if fast { Tier::Fast } else { Tier::Accurate },
+                composition: if ordered {
+                    analytic_fog::Composition::Ordered
+                } else {
+                    analytic_fog::Composition::Mix
+                },
+                ..SceneDesc::default()
+            },
+        )
         .boxed()
 }
 
@@ -1286,9 +1294,23 @@ mod json {
             prop::option::of(distance_fog()),
             limits(),
             prop::option::of(lobe),
+            prop_oneof![
+                Just(analytic_fog::Composition::Mix),
+                Just(analytic_fog::Composition::Ordered)
+            ],
         )
             .prop_map(
-                |(up, height_fog, lighting, volumes, tier, distance_fog, limits, lobe)| {
+                |(
+                    up,
+                    height_fog,
+                    lighting,
+                    volumes,
+                    tier,
+                    distance_fog,
+                    limits,
+                    lobe,
+                    composition,
+                )| {
                     // A lobe needs a sun.
                     let lobe = lobe.filter(|_| lighting.sun.is_some());
                     SceneDesc {
@@ -1300,6 +1322,7 @@ mod json {
                         distance_fog,
                         limits,
                         lobe,
+                        composition,
                     }
                 },
             )

@@ -43,6 +43,7 @@
 //! (`tests/height_fog.rs`).
 
 mod check;
+mod compose;
 mod controls;
 mod quad;
 pub mod volume;
@@ -50,6 +51,9 @@ pub mod volume;
 pub use check::{
     check_sample, condition, tau_interval, tau_tolerance, up_is_axis, up_rounding, SampleCheck,
     EPS32, L_IN_TOLERANCE, T_FLUSH,
+};
+pub use compose::{
+    composition_rays, composition_scenes, marched_sample, mixed_sample, ordered_sample,
 };
 pub use controls::{
     distance_fog_depth, distance_fog_depth_quad, lobe_weight, scene_sample, SceneSample,

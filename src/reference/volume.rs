@@ -272,6 +272,26 @@ fn integrand_at(aff: &Affine, profile: Profile, x: DVec3, dl: f64) -> f64 {
     }
 }
 
+/// The density (profile, box fade) at the world point `x` (f64).
+pub(crate) fn integrand_at_world(aff: &AffineRef, profile: Profile, x: DVec3) -> f64 {
+    let p = aff.0.m.inverse() * (x - aff.0.center);
+    integrand_at(&aff.0, profile, p, 1.0)
+}
+
+/// Whether the world point `x` lies inside the shape (a cut-out removes density there).
+pub(crate) fn inside_world(aff: &AffineRef, x: DVec3) -> bool {
+    let p = aff.0.m.inverse() * (x - aff.0.center);
+    match aff.0.kind {
+        Kind::Ball => p.length_squared() <= 1.0,
+        Kind::Cube => p.abs().max_element() <= 1.0,
+    }
+}
+
+/// The parameter interval (in s) where the line o + s·d is inside the shape, unclipped.
+pub(crate) fn line_interval_of(aff: &AffineRef, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
+    line_interval(&aff.0, o, d)
+}
+
 /// Adaptive Gauss–Kronrod (7, 15) on [a, b] to a relative tolerance of 1e-14.
 pub fn gauss_kronrod(f: &dyn Fn(f64) -> f64, a: f64, b: f64) -> f64 {
     const XGK: [f64; 8] = [

@@ -22,6 +22,16 @@ use super::{Kind, VolumePlan, VolumeSet, MAX_CUTS};
 use crate::math::{ldexp, Lane};
 use crate::scene::Scene;
 
+/// One volume a packet touches, for the ordered composition (`Composition::Ordered`):
+/// where each ray enters it (world distance from the ray's start; 0 where the ray misses
+/// it, whose τ is then 0), its optical depth and its fog colour (clamped to f32::MAX).
+#[derive(Clone, Copy)]
+pub(crate) struct Entry<L> {
+    pub s: L,
+    pub tau: [L; 3],
+    pub colour: [L; 3],
+}
+
 /// The volumes' contribution for a packet: optical depth per channel, and (if asked) the
 /// τ-weighted mix of their fog colours.
 #[derive(Clone, Copy)]
@@ -301,7 +311,11 @@ fn cut_spans<L: Lane>(
 
 /// ∫ density · world length over the additive volume's segment minus the cuts.
 #[inline(always)]
-fn volume_depth<L: Lane>(set: &VolumeSet, k: usize, o: &[L; 3], dir: &[L; 3], t_w: L) -> L {
+///
+/// Also returns the world distance at which the ray enters the volume's clipped segment
+/// (cut-outs ignored; for the ordered composition; unspecified where the segment is
+/// empty).
+fn volume_depth<L: Lane>(set: &VolumeSet, k: usize, o: &[L; 3], dir: &[L; 3], t_w: L) -> (L, L) {
     let plan = &set.additive[k];
     let f = frame(plan, o, dir);
     let zero = L::splat(0.0);
@@ -313,13 +327,16 @@ fn volume_depth<L: Lane>(set: &VolumeSet, k: usize, o: &[L; 3], dir: &[L; 3], t_
             Kind::Ball => {
                 let (chord, seg) = ball_piece(&f, t_w);
                 let inv_a = L::splat(1.0) / f.a;
-                integral(plan.profile, &chord, &seg) * inv_a
+                (
+                    integral(plan.profile, &chord, &seg) * inv_a,
+                    seg.ua.mul_add(inv_a, f.sc),
+                )
             }
             Kind::Cube => {
                 let (lo, hi) = cube_interval(&f);
                 let va = lo.max(f.sc.neg());
                 let vb = hi.min(t_w - f.sc);
-                cube_integral(plan, &f, va, vb.max(va))
+                (cube_integral(plan, &f, va, vb.max(va)), f.sc + va)
             }
         };
     }
@@ -330,6 +347,7 @@ fn volume_depth<L: Lane>(set: &VolumeSet, k: usize, o: &[L; 3], dir: &[L; 3], t_
         Kind::Ball => {
             let (chord, seg) = ball_piece(&f, t_w);
             let inv_a = L::splat(1.0) / f.a;
+            let entry = seg.ua.mul_add(inv_a, f.sc);
             let w = chord.w;
             // Sweep the sorted cuts in this ball's u coordinate.
             let mut pos = seg.ua;
@@ -365,7 +383,7 @@ fn volume_depth<L: Lane>(set: &VolumeSet, k: usize, o: &[L; 3], dir: &[L; 3], t_
                 db: seg.db,
             };
             acc = acc + integral(plan.profile, &chord, &piece);
-            acc * inv_a
+            (acc * inv_a, entry)
         }
         Kind::Cube => {
             let (lo, hi) = cube_interval(&f);
@@ -378,7 +396,7 @@ fn volume_depth<L: Lane>(set: &VolumeSet, k: usize, o: &[L; 3], dir: &[L; 3], t_
                 acc = acc + cube_integral(plan, &f, pos, end);
                 pos = pos.max(cb.min(vb));
             }
-            acc + cube_integral(plan, &f, pos, vb.max(pos))
+            (acc + cube_integral(plan, &f, pos, vb.max(pos)), f.sc + va)
         }
     }
 }
@@ -448,6 +466,7 @@ pub(crate) fn eval_volumes<L: Lane, const UNIT: bool, const WANT_L: bool>(
     dir: &[L; 3],
     sun: Option<[f32; 3]>,
     volumes: Option<&[u32]>,
+    mut entries: Option<&mut Vec<Entry<L>>>,
 ) -> VolOut<L> {
     let zero = L::splat(0.0);
     // NaN for invalid rays (a non-finite origin or direction, t NaN or negative).
@@ -493,7 +512,8 @@ pub(crate) fn eval_volumes<L: Lane, const UNIT: bool, const WANT_L: bool>(
             continue;
         }
         // Capped so that a zero extinction channel gives 0, never inf · 0.
-        let g = volume_depth(set, k, &o, &dir, t_w).min(L::splat(f32::MAX));
+        let (g, entry) = volume_depth(set, k, &o, &dir, t_w);
+        let g = g.min(L::splat(f32::MAX));
         let g = L::select(near, g, zero);
         let mut c = plan.colour_const.map(L::splat);
         if WANT_L {
@@ -507,13 +527,29 @@ pub(crate) fn eval_volumes<L: Lane, const UNIT: bool, const WANT_L: bool>(
                 }
             }
         }
+        let mut taus = [zero; 3];
         for ch in 0..3 {
             let tau = g * L::splat(plan.sigma[ch]);
+            taus[ch] = tau;
             out.tau[ch] = out.tau[ch] + tau;
             if WANT_L {
                 let wt = tau.min(cap);
                 num[ch] = wt.mul_add(c[ch], num[ch]);
                 den[ch] = den[ch] + wt;
+            }
+        }
+        if WANT_L {
+            if let Some(list) = entries.as_deref_mut() {
+                // Finite and ≥ 0 on every lane (a lane that misses has τ = 0, so its entry
+                // point only has to be harmless); NaN (an invalid ray) becomes 0, the
+                // ray's τ is NaN anyway.
+                let s = L::splat(0.0).max(entry.min(t_w)).min(L::splat(f32::MAX));
+                let s = L::select(s.eq(s), s, zero);
+                list.push(Entry {
+                    s,
+                    tau: taus,
+                    colour: c.map(clamp_colour),
+                });
             }
         }
     }
