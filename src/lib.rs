@@ -48,6 +48,13 @@
 //! (`SceneBuilder::new().layer(..).sun(..).build()?`); `build` runs [`Scene::new`], so its
 //! errors name the same fields as the JSON loader's.
 //!
+//! ## Media and composition
+//! A scene holds height fog layers, fog volumes ([`Volume`]: bounded shapes with analytic
+//! density profiles, and cut-outs), distance fog and Unreal-style limits ([`DistanceFog`],
+//! [`FogLimits`]), lit by ambient light and a sun. Optical depths add; the in-scattered
+//! light of media with different colours combines by [`Composition`]: the τ-weighted mix
+//! (default) or the fog volumes composited front to back.
+//!
 //! ## Framebuffer pass
 //! [`Scene::fog_pass`] fogs a renderer's frame in place from a [`pass::Camera`], a depth
 //! buffer and a colour buffer (RGB, RGBA or planar), 8 pixels at a time and in parallel;
@@ -57,8 +64,11 @@
 //! ## Feature flags
 //! - `serde`: `Serialize`/`Deserialize` for the scene description types (the JSON model
 //!   of the command-line tool).
-//! - `cli`: the `analytic-fog` binary (`src/bin/`); pulls serde_json and clap. A renderer
-//!   that depends on the library gets none of them.
+//! - `report`: the `report` module, the error-against-run-time measurement (pulls serde_json and
+//!   plotters).
+//! - `cli`: the `analytic-fog` binary (`src/bin/`; enables `serde` and `report`); pulls
+//!   serde_json, clap, png and plotters. A renderer that depends on the library gets none
+//!   of them.
 //!
 //! ## Build for AVX2/FMA
 //! `wide` selects its AVX2/FMA code paths at compile time only. Build with

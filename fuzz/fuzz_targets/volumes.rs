@@ -1,6 +1,7 @@
 //! Fuzzes the fog-volume kernels with arbitrary f32 bit patterns for the volumes'
 //! parameters (shapes, profiles, coefficients, cut-outs), an optional height fog layer,
-//! sun, start/cutoff distance and maximum opacity, and a batch of rays.
+//! sun, start/cutoff distance and maximum opacity, either composition of the in-scattering,
+//! and a batch of rays.
 //!
 //! The scene is built through `Scene::new` (inputs it rejects are skipped); the batch is
 //! evaluated with `evaluate` (8 lanes), `evaluate_scalar` and `evaluate_par`, and checked
@@ -19,8 +20,8 @@
 #![no_main]
 
 use analytic_fog::{
-    Component, HeightFogLayer, Lighting, Outputs, Phase, Profile, Rays, Scene, SceneDesc, Shape,
-    Sun, Volume,
+    Component, Composition, HeightFogLayer, Lighting, Outputs, Phase, Profile, Rays, Scene,
+    SceneDesc, Shape, Sun, Volume,
 };
 use glam::{Quat, Vec3};
 use libfuzzer_sys::fuzz_target;
@@ -149,6 +150,12 @@ fn scene_from(inp: &mut Input) -> SceneDesc {
         height_fog,
         lighting: Lighting { ambient, sun },
         volumes,
+        // Bit 2: the ordered composition of the volumes' in-scattering.
+        composition: if flags & 0x04 != 0 {
+            Composition::Ordered
+        } else {
+            Composition::Mix
+        },
         ..SceneDesc::default()
     };
     if flags & 0x40 != 0 {
