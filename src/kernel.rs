@@ -130,11 +130,11 @@ const MAX_PHASES: usize = 4;
 /// hand-written kernel (`benches/plan.rs`).
 #[derive(Clone, Copy)]
 pub(crate) struct Single {
-    layer: crate::scene::LayerCore,
-    phases: [(crate::light::Phase, [f32; 3]); MAX_PHASES],
-    n_phases: usize,
-    up: [f32; 3],
-    sun: Option<[f32; 3]>,
+    pub(crate) layer: crate::scene::LayerCore,
+    pub(crate) phases: [(crate::light::Phase, [f32; 3]); MAX_PHASES],
+    pub(crate) n_phases: usize,
+    pub(crate) up: [f32; 3],
+    pub(crate) sun: Option<[f32; 3]>,
 }
 
 impl Single {

@@ -355,6 +355,9 @@ pub struct Scene {
     /// Ordered composition of the fog volumes' in-scattering (`Composition::Ordered` in a
     /// scene with additive volumes).
     pub(crate) ordered: bool,
+    /// The framebuffer pass uses the batch kernel even where its own one-layer kernel
+    /// applies (`Scene::with_batch_kernel_pass`).
+    pub(crate) exact_pass: bool,
 }
 
 fn check_finite(field: impl FnOnce() -> String, v: f32) -> Result<(), SceneError> {
@@ -639,6 +642,7 @@ impl Scene {
             limits,
             lobe,
             ordered: desc.composition == Composition::Ordered && !volumes_empty,
+            exact_pass: false,
             desc,
         })
     }
@@ -663,6 +667,16 @@ impl Scene {
     #[doc(hidden)]
     pub fn without_culling(mut self) -> Scene {
         self.volumes.no_culling = true;
+        self
+    }
+
+    /// This scene with the framebuffer pass running the batch API's kernel on every frame,
+    /// so that each pixel is bit-identical to [`Scene::eval_ray`] for its ray (see
+    /// [`crate::pass`]); by default, frames of one height fog layer seen through a
+    /// perspective camera run the pass's own, cheaper kernel, which agrees with the batch
+    /// API within the accuracy bound rather than bit for bit.
+    pub fn with_batch_kernel_pass(mut self) -> Scene {
+        self.exact_pass = true;
         self
     }
 

@@ -1,13 +1,17 @@
-//! The framebuffer fog pass (`analytic_fog::pass`): every pixel equals the batch API's
-//! result for the ray `Camera::pixel_ray` returns (bit for bit, including the final
-//! multiply-add), on random cameras, depths (sky included), every depth convention, every
-//! colour layout and frame sizes with row tails; `pixel_ray` against an independent f64
-//! unprojection; errors naming the buffer.
+//! The framebuffer fog pass (`analytic_fog::pass`): with the batch API's kernel
+//! (`Scene::with_batch_kernel_pass`), every pixel equals the batch API's result for the ray
+//! `Camera::pixel_ray` returns (bit for bit, including the final multiply-add); with the
+//! pass's own one-layer kernel, every pixel is within the crate's accuracy bound of the
+//! independent f64 reference and close to the batch API; on random cameras, depths (sky
+//! included), every depth convention, every colour layout and frame sizes with row tails;
+//! `pixel_ray` against an independent f64 unprojection; errors naming the buffer.
 
 use analytic_fog::math::Lane;
 use analytic_fog::pass::{Camera, ColourBuffer, Depth, DepthConvention, PixelRay, Projection};
+use analytic_fog::reference::{self, check_sample};
 use analytic_fog::{
-    Component, HeightFogLayer, Lighting, Outputs, PassError, Phase, Rays, Scene, SceneDesc, Sun,
+    Component, FogSample, HeightFogLayer, Lighting, Outputs, PassError, Phase, Rays, Scene,
+    SceneDesc, Sun,
 };
 use glam::{DMat4, DVec3, Mat4, Vec3};
 
@@ -248,7 +252,7 @@ fn pass_equals_batch_api_bit_for_bit() {
     let mut sky = 0usize;
     for case in 0..400 {
         let (w, h) = SIZES[case % SIZES.len()];
-        let scene = scene(&mut rng, case % 4);
+        let scene = scene(&mut rng, case % 4).with_batch_kernel_pass();
         let cam = camera(&mut rng, w, h);
         let conv = convention(&mut rng, &cam);
         let depth = depths(&mut rng, conv, w * h);
@@ -349,6 +353,19 @@ fn large_frame_parallel_equals_single_and_eval_ray() {
     let depth = depths(&mut rng, conv, w * h);
     let d = Depth::ndc_reversed(&depth, 0.1, f32::INFINITY);
     let surface: Vec<f32> = (0..3 * w * h).map(|_| rng.range(0.0, 2.0)).collect();
+    // The pass's own kernel: parallel = single, bit for bit.
+    assert!(scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap());
+    let mut a = surface.clone();
+    let mut b = surface.clone();
+    scene
+        .fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut a))
+        .unwrap();
+    scene
+        .fog_pass_single(&cam, w, h, d, ColourBuffer::Rgb(&mut b))
+        .unwrap();
+    assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+    // The batch API's kernel: parallel = single = `eval_ray`, bit for bit.
+    let scene = scene.with_batch_kernel_pass();
     let mut a = surface.clone();
     let mut b = surface.clone();
     scene
@@ -366,6 +383,109 @@ fn large_frame_parallel_equals_single_and_eval_ray() {
             assert_eq!(a[3 * i + c].to_bits(), e.to_bits(), "pixel {i} channel {c}");
         }
     }
+}
+
+/// The pass's own one-layer kernel (perspective cameras, `Scene::fog_pass_own_kernel`)
+/// against the independent f64 reference with the crate's bound
+/// (`reference::check_sample`): L_in is the result for a black surface (exactly), T is
+/// recovered from a surface of 2^120 (2^120·T + L_in, rounded once, minus L_in in f64),
+/// and τ is taken from the reference (the pass has no τ output). Random scenes (the
+/// default kinds and a stiff variant: falloff up to 4, cameras up to 300 above or below
+/// the base), cameras, depths and frame sizes; frames the own kernel declines are checked
+/// too (they run the batch kernel). Also against the batch API: T within 1e-5, L_in
+/// within 1e-5 of the colour scale.
+#[test]
+fn own_kernel_within_the_accuracy_bound() {
+    let mut rng = Rng(0x0dd_ba11);
+    let big = 2f32.powi(120);
+    let (mut own, mut declined, mut pixels, mut worst) = (0, 0, 0usize, 0.0f64);
+    let (mut dt_max, mut dl_max) = (0.0f32, 0.0f64);
+    for case in 0..240 {
+        let (w, h) = SIZES[case % SIZES.len()];
+        let kind = [0, 2, 3][case % 3];
+        let mut desc = scene(&mut rng, kind).desc().clone();
+        if case % 4 == 3 {
+            let l = &mut desc.height_fog[0];
+            l.falloff = rng.range(-4.0, 4.0);
+            l.base_height = rng.range(-300.0, 300.0);
+            l.components[0].scattering *= rng.range(0.1, 100.0);
+        }
+        let scene = Scene::new(desc.clone()).unwrap();
+        let cam = camera(&mut rng, w, h);
+        let conv = convention(&mut rng, &cam);
+        if scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap() {
+            own += 1;
+        } else {
+            declined += 1;
+        }
+        let depth = depths(&mut rng, conv, w * h);
+        let d = Depth {
+            values: &depth,
+            convention: conv,
+        };
+        let n = w * h;
+        let mut black = [vec![0.0f32; n], vec![0.0; n], vec![0.0; n]];
+        let mut white = [vec![big; n], vec![big; n], vec![big; n]];
+        let [r, g, b] = &mut black;
+        scene
+            .fog_pass(&cam, w, h, d, ColourBuffer::Planar([r, g, b]))
+            .unwrap();
+        let [r, g, b] = &mut white;
+        scene
+            .fog_pass(&cam, w, h, d, ColourBuffer::Planar([r, g, b]))
+            .unwrap();
+        let (bt, bl) = batch_reference(&scene, &cam, w, h, &depth, conv);
+        for i in 0..n {
+            let ray = cam.pixel_ray(i % w, i / w, w, h, depth[i], conv).unwrap();
+            if ray.t.is_nan() {
+                continue;
+            }
+            pixels += 1;
+            let l = [0, 1, 2].map(|c| black[c][i]);
+            let t = [0, 1, 2].map(|c| ((white[c][i] as f64 - l[c] as f64) / big as f64) as f32);
+            let r = reference::sample(
+                &desc,
+                ray.origin.as_dvec3(),
+                ray.direction.as_dvec3(),
+                ray.t as f64,
+            );
+            let got = FogSample {
+                tau: Vec3::from_array(r.tau.map(|v| v as f32)),
+                transmittance: Vec3::from_array(t),
+                inscattering: Vec3::from_array(l),
+            };
+            let chk = check_sample(&desc, ray.origin, ray.direction, ray.t, &got);
+            let ctx = || {
+                format!(
+                    "case {case}, {w}x{h}, pixel ({}, {}), {conv:?}, depth {}, {cam:?}, {desc:?}",
+                    i % w,
+                    i / w,
+                    depth[i]
+                )
+            };
+            assert!(chk.passed(), "{:?}: {}", chk.failure, ctx());
+            worst = worst.max(chk.trans_ratio.max(chk.insc_ratio));
+            let scale = r.colour.iter().cloned().fold(1e-30, f64::max);
+            for c in 0..3 {
+                dt_max = dt_max.max((t[c] - bt[i][c]).abs());
+                dl_max = dl_max.max((l[c] - bl[i][c]).abs() as f64 / scale);
+                assert!((t[c] - bt[i][c]).abs() <= 1e-5, "T vs batch: {}", ctx());
+                assert!(
+                    ((l[c] - bl[i][c]).abs() as f64) <= 1e-5 * scale,
+                    "L_in vs batch: {}",
+                    ctx()
+                );
+            }
+        }
+    }
+    eprintln!(
+        "own kernel: {own} frames, declined {declined}, {pixels} pixels, worst ratio to the \
+         bound {worst:.3}; vs batch API: max |dT| {dt_max:.2e}, max |dL|/C {dl_max:.2e}"
+    );
+    assert!(
+        own >= 60 && declined >= 20,
+        "own {own}, declined {declined}"
+    );
 }
 
 fn ndc_uv(x: usize, y: usize, w: usize, h: usize) -> (f64, f64) {

@@ -423,7 +423,7 @@ pub(crate) struct FramePlan {
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct RowPlan {
     o: [f32; 3],
-    d: [f32; 3],
+    pub(super) d: [f32; 3],
 }
 
 impl FramePlan {

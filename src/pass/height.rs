@@ -1,0 +1,415 @@
+//! The pass's own kernel for the most common frame: a perspective camera and one height
+//! fog layer with nothing else (no volumes, no distance fog or limits, no lobe; emission,
+//! ambient and up to four phase functions of a sun allowed).
+//!
+//! All rays of such a frame start at the eye, so the density there, ρ₀ = e^(−b·(y₀ − h0)),
+//! is a constant of the frame: it is computed once, in f64, and folded into the extinction,
+//! K_c = σ_c · ρ₀. Per pixel, with n = |d|, u = dot(d, up), Δ = b·u·t:
+//!
+//!   τ_c = K_c · n · t · E(Δ),  E(Δ) = (1 − e^(−Δ))/Δ = expm1(y)/y with y = −Δ,
+//!
+//! one `expm1` and one division for both signs of Δ (E → 1 as Δ → 0 with no branch, E ≈
+//! 1/Δ up, E ≈ e^|Δ|/|Δ| down), where the batch kernel, which must take any origin, needs
+//! e^(−u_min) and φ(|Δ|) with their exponents carried apart. That is what makes this
+//! kernel cheaper; the pass outputs T and L_in only, never τ, so τ need not be resolved
+//! beyond where T = e^(−τ) is 0 (τ > 104).
+//!
+//! That plain f32 product is exact to a few roundings, and saturates only where the true
+//! τ is far beyond 104, on the frames that [`HeightPass::new`] accepts (it returns `None`,
+//! and the pass uses the batch kernel, otherwise). With T_BIG = 1e20 (t is clamped to it,
+//! sky pixels included), n_min ≤ n ≤ n_max over the frame, and K_min, K_max the smallest
+//! non-zero and the largest K_c:
+//! - clamping t: if Δ(T_BIG) ≥ 20, τ(T_BIG) and τ(t) differ by less than e^(−20)
+//!   relative; otherwise τ(T_BIG) ≥ K_min·n_min·T_BIG·E(20) > 1e4 (requires
+//!   K_min·n_min ≥ 2e-15), so both saturate;
+//! - E overflows (Δ < −88.7) only where τ ≥ K·(n/|u|)·e^88.7/|b| > 1e4 (requires
+//!   K_min/|b| ≥ 3e-35; n ≥ |u| as up is unit);
+//! - K_c is a normal f32 (1e-30 ≤ K_c ≤ 1e30 where σ_c > 0);
+//! - nothing else overflows: K_max·n_max·T_BIG ≤ 1e37 and |b|·n_max·T_BIG ≤ 1e37;
+//! - n·t·E is clamped to f32::MAX so that a channel with σ_c = 0 gives τ = 0, not 0·∞.
+//!
+//! The ranges are checked in the log domain: K_c itself can leave even f64's range.
+//!
+//! Error: K_c one rounding (from f64), n two, t (the same f32 ray as the batch API's)
+//! none, Δ two (relative, amplified by |Δ| in E: the problem's condition), E ≤ 2.5 ULP
+//! (`expm1`'s 1.44 and the division), three products: τ within about 8 + 3·|Δ| ULP, inside
+//! the crate's bound 16·2⁻²⁴·(1 + |b·(y₀ − h0)| + |Δ|) (here y₀'s term is resolved in f64).
+//! `tests/pass.rs` checks every pixel of random frames against the batch API.
+
+use super::camera::{DepthPlan, FramePlan};
+use super::RowColour;
+use crate::kernel::Single;
+use crate::light::Phase;
+use crate::math::{exp_neg, exp_neg_fast, expm1, Lane};
+use crate::medium::volume::clamp_colour;
+use crate::scene::{Scene, UpAxis};
+use crate::Tier;
+use wide::f32x8;
+
+/// Rays are clamped to this length (see the module documentation).
+const T_BIG: f32 = 1e20;
+/// Below this, E(Δ) = 1 in f32; keeps the division away from 0/0.
+const TINY: f32 = 8.673_617e-19; // 2^-60
+
+/// The most phase functions [`fog_row`] takes (as `Single`).
+const MAX_PHASES: usize = 4;
+
+/// One phase function with its colour weights, in the form
+/// p = (α + β·c²) · q^(−3/2), q = base + gg·|v + w|², c = dot(v, s) (v the unit view
+/// direction, s toward the sun): Henyey–Greenstein (β = 0) and Cornette–Shanks with
+/// (1 + g² − 2g·c) written as (1 ∓ g)² ± g·|v ∓ s|² as in `Phase::eval` (no cancellation at
+/// the peak), Rayleigh (gg = 0, base = 1).
+#[derive(Clone, Copy, Default)]
+struct PhaseTerm {
+    alpha: f32,
+    beta: f32,
+    base: f32,
+    gg: f32,
+    w: [f32; 3],
+    s: [f32; 3],
+    k: [f32; 3],
+}
+
+impl PhaseTerm {
+    fn new(phase: Phase, k: [f32; 3], s: [f32; 3]) -> PhaseTerm {
+        use core::f32::consts::PI;
+        let hg = |g: f32| {
+            if g >= 0.0 {
+                ((1.0 - g) * (1.0 - g), g, s.map(|v| -v))
+            } else {
+                ((1.0 + g) * (1.0 + g), -g, s)
+            }
+        };
+        let (alpha, beta, (base, gg, w)) = match phase {
+            Phase::Isotropic => (1.0 / (4.0 * PI), 0.0, (1.0, 0.0, [0.0; 3])),
+            Phase::Rayleigh => (3.0 / (16.0 * PI), 3.0 / (16.0 * PI), (1.0, 0.0, [0.0; 3])),
+            Phase::HenyeyGreenstein(g) => ((1.0 - g) * (1.0 + g) / (4.0 * PI), 0.0, hg(g)),
+            Phase::CornetteShanks(g) => {
+                let num = 3.0 / (8.0 * PI) * (1.0 - g) * (1.0 + g) / (2.0 + g * g);
+                (num, num, hg(g))
+            }
+        };
+        PhaseTerm {
+            alpha,
+            beta,
+            base,
+            gg,
+            w,
+            s,
+            k,
+        }
+    }
+
+    /// p for the view directions `d · inv_n` (unit); `beta`: whether any term of the
+    /// frame has β ≠ 0 (else c is not formed).
+    #[inline(always)]
+    fn eval(&self, d: [f32x8; 3], inv_n: f32x8, beta: bool) -> f32x8 {
+        let w = [0, 1, 2].map(|c| d[c].mul_add(inv_n, f32x8::splat(self.w[c])));
+        let m = w[0].mul_add(w[0], w[1].mul_add(w[1], w[2] * w[2]));
+        let r = rsqrt(m.mul_add(f32x8::splat(self.gg), f32x8::splat(self.base)));
+        let mut a = f32x8::splat(self.alpha);
+        if beta {
+            let c = crate::light::dot3(d, self.s) * inv_n;
+            a = (c * c).mul_add(f32x8::splat(self.beta), a);
+        }
+        a * r * (r * r)
+    }
+}
+
+/// 1/√x: the hardware estimate (relative error < 1.5·2⁻¹², on AMD and Intel) and one
+/// Newton step, which leaves about 1.5·(1.5·2⁻¹²)² + rounding < 4·2⁻²⁴ relative.
+#[inline(always)]
+fn rsqrt(x: f32x8) -> f32x8 {
+    let r = x.recip_sqrt();
+    let h = x * f32x8::splat(0.5);
+    r * (h * r).neg_mul_add(r, f32x8::splat(1.5))
+}
+
+/// A frame's constants for [`fog_row`].
+#[derive(Clone, Copy)]
+pub(crate) struct HeightPass {
+    /// σ_c · ρ₀ per channel.
+    k: [f32; 3],
+    /// Falloff along `up`.
+    b: f32,
+    /// The kernel's unit up (an axis, with its sign folded into `b`, or the scene's).
+    up: [f32; 3],
+    /// The fog colour's constant part (ambient, emission, isotropic sun).
+    colour: [f32; 3],
+    phases: [PhaseTerm; MAX_PHASES],
+    n_phases: usize,
+    /// Some phase term has β ≠ 0 (Rayleigh, Cornette–Shanks).
+    beta: bool,
+    grey: bool,
+    fast: bool,
+    /// The depth conversion: [`LINEAR`], [`DISTANCE`] or [`NDC`] with its constants.
+    depth: usize,
+    /// NDC: z = near / (depth·k + q), sky where depth·sky_s ≥ sky_at.
+    ndc: [f32; 5],
+}
+
+/// t = depth.
+const LINEAR: usize = 0;
+/// t = depth / |d|.
+const DISTANCE: usize = 1;
+/// A perspective rasterizer's depth (standard or reversed-Z).
+const NDC: usize = 2;
+
+impl HeightPass {
+    /// The frame's constants, or `None` where this kernel does not apply: an orthographic
+    /// camera, anything but one height fog layer, or constants outside the ranges of the
+    /// module documentation (an eye so far above or below the fog that ρ₀ leaves them,
+    /// extinctions near 1e-12 or 1e12, |b| above 1e12).
+    pub(crate) fn new(scene: &Scene, plan: &FramePlan) -> Option<HeightPass> {
+        if plan.ortho {
+            return None;
+        }
+        let single = Single::of(scene)?;
+        if single.n_phases > MAX_PHASES {
+            return None;
+        }
+        let layer = single.layer;
+        // For an axis, up = e_i makes dot(d, up) = d[i] exactly.
+        let up = match scene.axis {
+            UpAxis::Axis(i) => {
+                let mut e = [0.0; 3];
+                e[i] = 1.0;
+                e
+            }
+            UpAxis::General => scene.up.to_array(),
+        };
+        let f = |v: [f32; 3]| v.map(f64::from);
+        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let norm = |a: [f64; 3]| dot(a, a).sqrt();
+        let (o, d0, du, dv, upd) = (f(plan.o0), f(plan.d0), f(plan.d_u), f(plan.d_v), f(up));
+        // |d0 + u·d_u + v·d_v| over u, v in [-1, 1]: at most the sum of the norms, at least
+        // the distance of the plane d0 + span(d_u, d_v) from the origin.
+        let n_max = norm(d0) + norm(du) + norm(dv);
+        let cross = [
+            du[1] * dv[2] - du[2] * dv[1],
+            du[2] * dv[0] - du[0] * dv[2],
+            du[0] * dv[1] - du[1] * dv[0],
+        ];
+        let n_min = dot(d0, cross).abs() / norm(cross);
+        let b = f64::from(layer.b);
+        let a0 = b * (dot(o, upd) - f64::from(layer.h0));
+        // ln K_c = ln σ_c − a0 (K_c itself may leave even f64's range).
+        let ln_k: Vec<f64> = layer
+            .sigma_t
+            .iter()
+            .filter(|&&s| s > 0.0)
+            .map(|&s| f64::from(s).ln() - a0)
+            .collect();
+        let ln_k_max = ln_k.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+        let ln_k_min = ln_k.iter().cloned().fold(f64::INFINITY, f64::min);
+        let ln_t_big = f64::from(T_BIG).ln();
+        let ok = n_min.is_finite()
+            && n_min > 0.0
+            && n_max.is_finite()
+            && a0.is_finite()
+            && (ln_k.is_empty()
+                || (ln_k_min >= 1e-30f64.ln()
+                    && ln_k_max <= 1e30f64.ln()
+                    && ln_k_min + n_min.ln() >= 2e-15f64.ln()
+                    && ln_k_min >= (3e-35 * b.abs()).ln()
+                    && ln_k_max + n_max.ln() + ln_t_big <= 1e37f64.ln()))
+            && b.abs() * n_max * f64::from(T_BIG) <= 1e37;
+        if !ok {
+            return None;
+        }
+        // (σ_c = 0 stays 0: e^(−a0) may be +∞ here, where no channel has extinction.)
+        let k = layer.sigma_t.map(|s| {
+            if s > 0.0 {
+                (f64::from(s) * (-a0).exp()) as f32
+            } else {
+                0.0
+            }
+        });
+        // As `FramePlan::ray`: standard z = n / (1 − depth·k), sky at depth ≥ 1; reversed
+        // z = n / (depth·k + q), sky at depth ≤ 0.
+        let (depth, ndc) = match plan.depth {
+            DepthPlan::Linear => (LINEAR, [0.0; 5]),
+            DepthPlan::Distance => (DISTANCE, [0.0; 5]),
+            DepthPlan::NdcPerspective { n, k, q, reversed } => (
+                NDC,
+                if reversed {
+                    [n, k, q, -1.0, 0.0]
+                } else {
+                    [n, -k, 1.0, 1.0, 1.0]
+                },
+            ),
+            DepthPlan::NdcOrthographic { .. } => return None,
+        };
+        let mut phases = [PhaseTerm::default(); MAX_PHASES];
+        let mut n_phases = 0;
+        if let Some(s) = single.sun {
+            for (p, (phase, w)) in phases.iter_mut().zip(&single.phases[..single.n_phases]) {
+                *p = PhaseTerm::new(*phase, *w, s);
+            }
+            n_phases = single.n_phases;
+        }
+        Some(HeightPass {
+            grey: k[0] == k[1] && k[1] == k[2],
+            k,
+            b: layer.b,
+            up,
+            colour: layer.colour_const,
+            phases,
+            n_phases,
+            beta: phases.iter().any(|p| p.beta != 0.0),
+            fast: scene.tier == Tier::Fast,
+            depth,
+            ndc,
+        })
+    }
+}
+
+/// Column offsets of the 8 lanes of a packet.
+const LANE_X: [f32; 8] = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0];
+
+/// Fogs one row (`depth`: its depth values, `out`: its colour) with [`HeightPass`]; the
+/// tail (width % 8) padded into one more packet whose dead lanes are dropped.
+#[inline(never)]
+pub(crate) fn fog_row<R: RowColour>(
+    hp: &HeightPass,
+    plan: &FramePlan,
+    y: usize,
+    depth: &[f32],
+    out: R,
+) {
+    // Monomorphized per depth convention, sun or none, grey or RGB and tier: the
+    // frame's choice, taken once per row.
+    macro_rules! go {
+        ($depth:expr, $sun:literal) => {
+            match (hp.grey, hp.fast) {
+                (false, false) => row::<R, { $depth }, $sun, false, false>(hp, plan, y, depth, out),
+                (false, true) => row::<R, { $depth }, $sun, false, true>(hp, plan, y, depth, out),
+                (true, false) => row::<R, { $depth }, $sun, true, false>(hp, plan, y, depth, out),
+                (true, true) => row::<R, { $depth }, $sun, true, true>(hp, plan, y, depth, out),
+            }
+        };
+    }
+    match (hp.depth, hp.n_phases > 0) {
+        (LINEAR, false) => go!(LINEAR, false),
+        (LINEAR, true) => go!(LINEAR, true),
+        (DISTANCE, false) => go!(DISTANCE, false),
+        (DISTANCE, true) => go!(DISTANCE, true),
+        (_, false) => go!(NDC, false),
+        (_, true) => go!(NDC, true),
+    }
+}
+
+/// Packets per block: the row is processed block by block in stages (see [`row`]).
+const BLOCK: usize = 8;
+
+/// Fogs a row in blocks of [`BLOCK`] packets, each block in three passes over small
+/// buffers: the rays' geometry and fog colour, then the optical depth's factor g = n·t·E,
+/// then T, L_in and the colour. One packet's work is a dependency chain of some 150
+/// cycles (the reciprocal square root, `expm1`, a division and `exp_neg` in sequence),
+/// longer than the out-of-order window can hide when each packet runs start to end; in
+/// stages, the packets of a block are independent within each loop.
+#[inline(always)]
+fn row<R: RowColour, const DEPTH: usize, const SUN: bool, const GREY: bool, const FAST: bool>(
+    hp: &HeightPass,
+    plan: &FramePlan,
+    y: usize,
+    depth: &[f32],
+    mut out: R,
+) {
+    let exp_neg = |x: f32x8| if FAST { exp_neg_fast(x) } else { exp_neg(x) };
+    let hp = *hp;
+    let rp = plan.row(y);
+    let width = depth.len();
+    let packets = width.div_ceil(8);
+    let zero = f32x8::splat(0.0);
+    let one = f32x8::splat(1.0);
+    let mut ys = [zero; BLOCK];
+    let mut nts = [zero; BLOCK];
+    let mut colours = [[zero; 3]; BLOCK];
+    for p0 in (0..packets).step_by(BLOCK) {
+        let m = (packets - p0).min(BLOCK);
+        // 1. Geometry: y = −Δ (away from 0), n·t, and the fog colour.
+        for i in 0..m {
+            let x0 = (p0 + i) * 8;
+            let n = (width - x0).min(8);
+            let dv = if n == 8 {
+                f32x8::load(&depth[x0..x0 + 8])
+            } else {
+                let mut b = [0.0f32; 8];
+                b[..n].copy_from_slice(&depth[x0..]);
+                f32x8::new(b)
+            };
+            // The direction as `FramePlan::ray` forms it (x0 + k is exact in f32, width ≤
+            // 2^24).
+            let xs = f32x8::splat(x0 as f32) + f32x8::new(LANE_X);
+            let u = xs.mul_add(f32x8::splat(plan.su), f32x8::splat(plan.ou));
+            let d = [0, 1, 2].map(|c| u.mul_add(f32x8::splat(plan.d_u[c]), f32x8::splat(rp.d[c])));
+            let (yv, nt, colour) = geometry::<DEPTH, SUN>(&hp, d, dv);
+            ys[i] = yv;
+            nts[i] = nt;
+            colours[i] = colour;
+        }
+        // 2. g = n·t·E(Δ), E = expm1(y)/y, clamped to f32::MAX so that K_c = 0 gives 0,
+        // not 0·∞ (n·t > 0 wherever E can be ∞: t = 0 gives y = TINY, E = 1).
+        for i in 0..m {
+            let yv = ys[i];
+            nts[i] = Lane::min(f32x8::splat(f32::MAX), (expm1(yv) / yv) * nts[i]);
+        }
+        // 3. T = e^(−K_c·g), L_in = colour · (1 − T), L ← L·T + L_in.
+        for i in 0..m {
+            let g = nts[i];
+            let trans = if GREY {
+                [exp_neg(f32x8::splat(hp.k[0]) * g); 3]
+            } else {
+                [0, 1, 2].map(|ch| exp_neg(f32x8::splat(hp.k[ch]) * g))
+            };
+            let insc = [0, 1, 2].map(|ch| colours[i][ch] * (one - trans[ch]));
+            let x0 = (p0 + i) * 8;
+            out.fog(x0, (width - x0).min(8), trans, insc);
+        }
+    }
+}
+
+/// For the rays from the eye along `d` (any length) to depth values `depth`: y = −Δ =
+/// −b·u·t kept away from 0 (E(Δ) = 1 below 2^-60), n·t, and the fog colour (clamped).
+#[inline(always)]
+fn geometry<const DEPTH: usize, const SUN: bool>(
+    hp: &HeightPass,
+    d: [f32x8; 3],
+    depth: f32x8,
+) -> (f32x8, f32x8, [f32x8; 3]) {
+    let n2 = d[0].mul_add(d[0], d[1].mul_add(d[1], d[2] * d[2]));
+    let inv_n = rsqrt(n2);
+    let n = n2 * inv_n;
+    let u = crate::light::dot3(d, hp.up);
+    let t = match DEPTH {
+        LINEAR => depth,
+        DISTANCE => depth * inv_n,
+        _ => {
+            let [near, k, q, sky_s, sky_at] = hp.ndc;
+            let z = f32x8::splat(near) / depth.mul_add(f32x8::splat(k), f32x8::splat(q));
+            let sky = Lane::ge(depth * f32x8::splat(sky_s), f32x8::splat(sky_at));
+            <f32x8 as Lane>::select(sky, f32x8::splat(f32::INFINITY), z)
+        }
+    };
+    // Negative depths to 0 (`Lane::max` is maxps: NaN, the second operand, stays NaN);
+    // rays clamped to T_BIG (`Lane::min`: NaN stays NaN). Not wide's `min`/`max`, which
+    // return the other operand for NaN.
+    let t = Lane::min(f32x8::splat(T_BIG), Lane::max(f32x8::splat(0.0), t));
+    let y = (f32x8::splat(-hp.b) * u) * t;
+    let y = <f32x8 as Lane>::select(
+        Lane::lt(Lane::abs(y), f32x8::splat(TINY)),
+        f32x8::splat(TINY),
+        y,
+    );
+    let mut c = hp.colour.map(f32x8::splat);
+    if SUN {
+        for term in &hp.phases[..hp.n_phases] {
+            let p = term.eval(d, inv_n, hp.beta);
+            for ch in 0..3 {
+                c[ch] = p.mul_add(f32x8::splat(term.k[ch]), c[ch]);
+            }
+        }
+    }
+    (y, n * t, c.map(clamp_colour))
+}
