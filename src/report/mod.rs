@@ -408,10 +408,12 @@ pub fn tau_rel_err(got: f64, want: f64) -> f64 {
 }
 
 /// The framebuffer pass over `f` (an RGB colour buffer fogged in place), one thread and
-/// all threads: median times for the whole frame.
+/// all threads: median times for the whole frame. With the batch API's kernel
+/// (`with_batch_kernel_pass`), whose errors the report measures on the same pixel rays;
+/// the pass's own one-layer kernel is measured by `benches/pass.rs` and `tests/pass.rs`.
 fn pass_times(scene: &Scene, tier: Tier, f: &Frame, repeats: usize) -> (Duration, Duration) {
     use crate::pass::{ColourBuffer, Depth};
-    let scene = scene.clone().with_tier(tier);
+    let scene = scene.clone().with_tier(tier).with_batch_kernel_pass();
     let mut colour = vec![0.5f32; f.width * f.height * 3];
     let mut go = |par: bool| {
         median_time(repeats, || {
