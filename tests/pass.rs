@@ -353,28 +353,25 @@ fn large_frame_parallel_equals_single_and_eval_ray() {
     let depth = depths(&mut rng, conv, w * h);
     let d = Depth::ndc_reversed(&depth, 0.1, f32::INFINITY);
     let surface: Vec<f32> = (0..3 * w * h).map(|_| rng.range(0.0, 2.0)).collect();
+    // Fogs the frame in parallel and on one thread; asserts the same bits.
+    let par_equals_single = |scene: &Scene| -> Vec<f32> {
+        let mut a = surface.clone();
+        let mut b = surface.clone();
+        scene
+            .fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut a))
+            .unwrap();
+        scene
+            .fog_pass_single(&cam, w, h, d, ColourBuffer::Rgb(&mut b))
+            .unwrap();
+        assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+        a
+    };
     // The pass's own kernel: parallel = single, bit for bit.
     assert!(scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap());
-    let mut a = surface.clone();
-    let mut b = surface.clone();
-    scene
-        .fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut a))
-        .unwrap();
-    scene
-        .fog_pass_single(&cam, w, h, d, ColourBuffer::Rgb(&mut b))
-        .unwrap();
-    assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+    par_equals_single(&scene);
     // The batch API's kernel: parallel = single = `eval_ray`, bit for bit.
     let scene = scene.with_batch_kernel_pass();
-    let mut a = surface.clone();
-    let mut b = surface.clone();
-    scene
-        .fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut a))
-        .unwrap();
-    scene
-        .fog_pass_single(&cam, w, h, d, ColourBuffer::Rgb(&mut b))
-        .unwrap();
-    assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+    let a = par_equals_single(&scene);
     for i in (0..w * h).step_by(37).chain([w - 1, w * h - 1]) {
         let r = cam.pixel_ray(i % w, i / w, w, h, depth[i], conv).unwrap();
         let f = scene.eval_ray(r.origin, r.direction, r.t);
