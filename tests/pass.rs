@@ -387,8 +387,9 @@ fn large_frame_parallel_equals_single_and_eval_ray() {
 /// (`reference::check_sample`): L_in is the result for a black surface (exactly), T is
 /// recovered from a surface of 2^120 (2^120·T + L_in, rounded once, minus L_in in f64),
 /// and τ is taken from the reference (the pass has no τ output). Random scenes (the
-/// default kinds and a stiff variant: falloff up to 4, cameras up to 300 above or below
-/// the base), cameras, depths and frame sizes; frames the own kernel declines are checked
+/// default kinds, grey, unlit and two-phase variants, and a stiff variant: falloff up to
+/// 4, cameras up to 300 above or below the base), cameras, depths and frame sizes, in the
+/// three colour layouts (same bits); frames the own kernel declines are checked
 /// too (they run the batch kernel). Also against the batch API: T within 1e-5, L_in
 /// within 1e-5 of the colour scale.
 #[test]
@@ -406,6 +407,20 @@ fn own_kernel_within_the_accuracy_bound() {
             l.falloff = rng.range(-4.0, 4.0);
             l.base_height = rng.range(-300.0, 300.0);
             l.components[0].scattering *= rng.range(0.1, 100.0);
+        }
+        // The kernel's variants: grey extinction (one exponential), no sun (no phase
+        // function), two phase functions (the general colour path).
+        match case % 5 {
+            1 => {
+                let c = &mut desc.height_fog[0].components[0];
+                c.scattering = Vec3::splat(c.scattering.x);
+            }
+            2 => desc.lighting.sun = None,
+            3 => {
+                let extra = component(&mut rng, Phase::CornetteShanks(0.5));
+                desc.height_fog[0].components.push(extra);
+            }
+            _ => {}
         }
         let scene = Scene::new(desc.clone()).unwrap();
         let cam = camera(&mut rng, w, h);
@@ -431,6 +446,25 @@ fn own_kernel_within_the_accuracy_bound() {
         scene
             .fog_pass(&cam, w, h, d, ColourBuffer::Planar([r, g, b]))
             .unwrap();
+        // The interleaved layouts give the same bits (RGB takes its own path in the own
+        // kernel: T and L_in in the buffer's layout).
+        for (surface, planes) in [(0.0, &black), (big, &white)] {
+            let mut rgb = vec![surface; 3 * n];
+            scene
+                .fog_pass_single(&cam, w, h, d, ColourBuffer::Rgb(&mut rgb))
+                .unwrap();
+            let mut rgba = vec![surface; 4 * n];
+            scene
+                .fog_pass(&cam, w, h, d, ColourBuffer::Rgba(&mut rgba))
+                .unwrap();
+            for i in 0..n {
+                for c in 0..3 {
+                    let e = planes[c][i].to_bits();
+                    assert_eq!(rgb[3 * i + c].to_bits(), e, "case {case}: RGB vs planar");
+                    assert_eq!(rgba[4 * i + c].to_bits(), e, "case {case}: RGBA vs planar");
+                }
+            }
+        }
         let (bt, bl) = batch_reference(&scene, &cam, w, h, &depth, conv);
         for i in 0..n {
             let ray = cam.pixel_ray(i % w, i / w, w, h, depth[i], conv).unwrap();

@@ -104,7 +104,11 @@ impl PhaseTerm {
     /// frame has β ≠ 0 (else c is not formed).
     #[inline(always)]
     fn eval(&self, d: [f32x8; 3], inv_n: f32x8, beta: bool) -> f32x8 {
-        let w = [0, 1, 2].map(|c| d[c].mul_add(inv_n, f32x8::splat(self.w[c])));
+        let w = [
+            d[0].mul_add(inv_n, f32x8::splat(self.w[0])),
+            d[1].mul_add(inv_n, f32x8::splat(self.w[1])),
+            d[2].mul_add(inv_n, f32x8::splat(self.w[2])),
+        ];
         let m = w[0].mul_add(w[0], w[1].mul_add(w[1], w[2] * w[2]));
         let r = rsqrt(m.mul_add(f32x8::splat(self.gg), f32x8::splat(self.base)));
         let mut a = f32x8::splat(self.alpha);
@@ -144,6 +148,11 @@ pub(crate) struct HeightPass {
     fast: bool,
     /// The depth conversion: [`LINEAR`], [`DISTANCE`] or [`NDC`] with its constants.
     depth: usize,
+    /// `k`, the constant fog colour and the first phase term's weights laid out as an
+    /// interleaved RGB buffer ([`interleaved3`]).
+    k3: [f32x8; 3],
+    colour3: [f32x8; 3],
+    phase_k3: [f32x8; 3],
     /// NDC: z = near / (depth·k + q), sky where depth·sky_s ≥ sky_at.
     ndc: [f32; 5],
 }
@@ -260,6 +269,9 @@ impl HeightPass {
             fast: scene.tier == Tier::Fast,
             depth,
             ndc,
+            k3: interleaved3(k),
+            colour3: interleaved3(layer.colour_const),
+            phase_k3: interleaved3(phases[0].k),
         })
     }
 }
@@ -277,39 +289,65 @@ pub(crate) fn fog_row<R: RowColour>(
     depth: &[f32],
     out: R,
 ) {
-    // Monomorphized per depth convention, sun or none, grey or RGB and tier: the
-    // frame's choice, taken once per row.
+    // Monomorphized per number of sunlit phase functions (none, one, more), grey or RGB
+    // and tier: the frame's choice, taken once per row. (The depth convention is a
+    // predictable branch per packet: as a const generic it measured no faster.)
     macro_rules! go {
-        ($depth:expr, $sun:literal) => {
+        ($ph:literal) => {
             match (hp.grey, hp.fast) {
-                (false, false) => row::<R, { $depth }, $sun, false, false>(hp, plan, y, depth, out),
-                (false, true) => row::<R, { $depth }, $sun, false, true>(hp, plan, y, depth, out),
-                (true, false) => row::<R, { $depth }, $sun, true, false>(hp, plan, y, depth, out),
-                (true, true) => row::<R, { $depth }, $sun, true, true>(hp, plan, y, depth, out),
+                (false, false) => row::<R, $ph, false, false>(hp, plan, y, depth, out),
+                (false, true) => row::<R, $ph, false, true>(hp, plan, y, depth, out),
+                (true, false) => row::<R, $ph, true, false>(hp, plan, y, depth, out),
+                (true, true) => row::<R, $ph, true, true>(hp, plan, y, depth, out),
             }
         };
     }
-    match (hp.depth, hp.n_phases > 0) {
-        (LINEAR, false) => go!(LINEAR, false),
-        (LINEAR, true) => go!(LINEAR, true),
-        (DISTANCE, false) => go!(DISTANCE, false),
-        (DISTANCE, true) => go!(DISTANCE, true),
-        (_, false) => go!(NDC, false),
-        (_, true) => go!(NDC, true),
+    match hp.n_phases {
+        0 => go!(0),
+        1 => go!(1),
+        _ => go!(2),
     }
 }
 
 /// Packets per block: the row is processed block by block in stages (see [`row`]).
-const BLOCK: usize = 8;
+const BLOCK: usize = 16;
+
+/// `v`'s 8 lanes each repeated three times, `v0 v0 v0 v1 v1 v1 v2 v2 | v2 v3 …`: a
+/// per-pixel value laid out as an interleaved RGB buffer (one permutation per lane).
+#[inline(always)]
+fn expand3(v: f32x8) -> [f32x8; 3] {
+    let a = v.to_array();
+    [
+        f32x8::new([a[0], a[0], a[0], a[1], a[1], a[1], a[2], a[2]]),
+        f32x8::new([a[2], a[3], a[3], a[3], a[4], a[4], a[4], a[5]]),
+        f32x8::new([a[5], a[5], a[6], a[6], a[6], a[7], a[7], a[7]]),
+    ]
+}
+
+/// Per-channel constants laid out as an interleaved RGB buffer: `c0 c1 c2 c0 c1 c2 c0 c1 |
+/// c2 c0 …`.
+fn interleaved3(c: [f32; 3]) -> [f32x8; 3] {
+    let mut v = [[0.0f32; 8]; 3];
+    for k in 0..24 {
+        v[k / 8][k % 8] = c[k % 3];
+    }
+    [f32x8::new(v[0]), f32x8::new(v[1]), f32x8::new(v[2])]
+}
 
 /// Fogs a row in blocks of [`BLOCK`] packets, each block in three passes over small
-/// buffers: the rays' geometry and fog colour, then the optical depth's factor g = n·t·E,
-/// then T, L_in and the colour. One packet's work is a dependency chain of some 150
-/// cycles (the reciprocal square root, `expm1`, a division and `exp_neg` in sequence),
-/// longer than the out-of-order window can hide when each packet runs start to end; in
-/// stages, the packets of a block are independent within each loop.
+/// buffers: the rays' geometry and phase or fog colour, then the optical depth's factor
+/// g = n·t·E, then T, L_in and the colour. One packet's work is a dependency chain of some
+/// 150 cycles (the reciprocal square root, `expm1`, a division and `exp_neg` in
+/// sequence), longer than the out-of-order window can hide when each packet runs start to
+/// end; in stages, the packets of a block are independent within each loop.
+///
+/// An interleaved RGB row with at most one phase function takes the third stage in the
+/// buffer's own layout: g (and the phase value) expanded to three lanes per packet
+/// (`expand3`), the channel constants laid out likewise, so that the colour moves as three
+/// whole lanes with no (de)interleaving; the same operations per element, so the same bits
+/// as the per-channel path, which the other layouts and the row's tail take.
 #[inline(always)]
-fn row<R: RowColour, const DEPTH: usize, const SUN: bool, const GREY: bool, const FAST: bool>(
+fn row<R: RowColour, const PH: usize, const GREY: bool, const FAST: bool>(
     hp: &HeightPass,
     plan: &FramePlan,
     y: usize,
@@ -321,68 +359,117 @@ fn row<R: RowColour, const DEPTH: usize, const SUN: bool, const GREY: bool, cons
     let rp = plan.row(y);
     let width = depth.len();
     let packets = width.div_ceil(8);
+    let full = width / 8;
+    let expanded = R::RGB3 && PH < 2;
     let zero = f32x8::splat(0.0);
     let one = f32x8::splat(1.0);
     let mut ys = [zero; BLOCK];
-    let mut nts = [zero; BLOCK];
+    let mut gs = [zero; BLOCK];
+    // PH = 1: the phase value; else unused.
+    let mut ps = [zero; BLOCK];
     let mut colours = [[zero; 3]; BLOCK];
     for p0 in (0..packets).step_by(BLOCK) {
         let m = (packets - p0).min(BLOCK);
-        // 1. Geometry: y = −Δ (away from 0), n·t, and the fog colour.
+        // 1. Geometry: y = −Δ (away from 0), n·t, and the phase value or fog colour.
         for i in 0..m {
             let x0 = (p0 + i) * 8;
-            let n = (width - x0).min(8);
-            let dv = if n == 8 {
+            let dv = if p0 + i < full {
                 f32x8::load(&depth[x0..x0 + 8])
             } else {
                 let mut b = [0.0f32; 8];
-                b[..n].copy_from_slice(&depth[x0..]);
+                b[..width - x0].copy_from_slice(&depth[x0..]);
                 f32x8::new(b)
             };
             // The direction as `FramePlan::ray` forms it (x0 + k is exact in f32, width ≤
             // 2^24).
             let xs = f32x8::splat(x0 as f32) + f32x8::new(LANE_X);
             let u = xs.mul_add(f32x8::splat(plan.su), f32x8::splat(plan.ou));
-            let d = [0, 1, 2].map(|c| u.mul_add(f32x8::splat(plan.d_u[c]), f32x8::splat(rp.d[c])));
-            let (yv, nt, colour) = geometry::<DEPTH, SUN>(&hp, d, dv);
+            let d = [
+                u.mul_add(f32x8::splat(plan.d_u[0]), f32x8::splat(rp.d[0])),
+                u.mul_add(f32x8::splat(plan.d_u[1]), f32x8::splat(rp.d[1])),
+                u.mul_add(f32x8::splat(plan.d_u[2]), f32x8::splat(rp.d[2])),
+            ];
+            let (yv, nt, inv_n) = geometry(&hp, d, dv);
             ys[i] = yv;
-            nts[i] = nt;
-            colours[i] = colour;
+            gs[i] = nt;
+            if PH == 1 {
+                ps[i] = hp.phases[0].eval(d, inv_n, hp.beta);
+            } else if PH > 1 {
+                colours[i] = colour(&hp, d, inv_n);
+            }
         }
         // 2. g = n·t·E(Δ), E = expm1(y)/y, clamped to f32::MAX so that K_c = 0 gives 0,
         // not 0·∞ (n·t > 0 wherever E can be ∞: t = 0 gives y = TINY, E = 1).
         for i in 0..m {
             let yv = ys[i];
-            nts[i] = Lane::min(f32x8::splat(f32::MAX), (expm1(yv) / yv) * nts[i]);
+            gs[i] = Lane::min(f32x8::splat(f32::MAX), (expm1(yv) / yv) * gs[i]);
         }
         // 3. T = e^(−K_c·g), L_in = colour · (1 − T), L ← L·T + L_in.
         for i in 0..m {
-            let g = nts[i];
+            let g = gs[i];
+            let x0 = (p0 + i) * 8;
+            if expanded && p0 + i < full {
+                let t = if GREY {
+                    expand3(exp_neg(f32x8::splat(hp.k[0]) * g))
+                } else {
+                    let g = expand3(g);
+                    [
+                        exp_neg(hp.k3[0] * g[0]),
+                        exp_neg(hp.k3[1] * g[1]),
+                        exp_neg(hp.k3[2] * g[2]),
+                    ]
+                };
+                let p = expand3(ps[i]);
+                let mut insc = [zero; 3];
+                for j in 0..3 {
+                    let c = if PH == 1 {
+                        clamp_colour(p[j].mul_add(hp.phase_k3[j], hp.colour3[j]))
+                    } else {
+                        clamp_colour(hp.colour3[j])
+                    };
+                    insc[j] = c * (one - t[j]);
+                }
+                out.fog_rgb3(x0, t, insc);
+                continue;
+            }
             let trans = if GREY {
                 [exp_neg(f32x8::splat(hp.k[0]) * g); 3]
             } else {
-                [0, 1, 2].map(|ch| exp_neg(f32x8::splat(hp.k[ch]) * g))
+                [
+                    exp_neg(f32x8::splat(hp.k[0]) * g),
+                    exp_neg(f32x8::splat(hp.k[1]) * g),
+                    exp_neg(f32x8::splat(hp.k[2]) * g),
+                ]
             };
-            let insc = [0, 1, 2].map(|ch| colours[i][ch] * (one - trans[ch]));
-            let x0 = (p0 + i) * 8;
+            let c = match PH {
+                0 => [0, 1, 2].map(|j| clamp_colour(f32x8::splat(hp.colour[j]))),
+                1 => {
+                    let k = hp.phases[0].k;
+                    [0, 1, 2].map(|j| {
+                        clamp_colour(ps[i].mul_add(f32x8::splat(k[j]), f32x8::splat(hp.colour[j])))
+                    })
+                }
+                _ => colours[i],
+            };
+            let insc = [
+                c[0] * (one - trans[0]),
+                c[1] * (one - trans[1]),
+                c[2] * (one - trans[2]),
+            ];
             out.fog(x0, (width - x0).min(8), trans, insc);
         }
     }
 }
 
 /// For the rays from the eye along `d` (any length) to depth values `depth`: y = −Δ =
-/// −b·u·t kept away from 0 (E(Δ) = 1 below 2^-60), n·t, and the fog colour (clamped).
+/// −b·u·t kept away from 0 (E(Δ) = 1 below 2^-60), n·t, and 1/n.
 #[inline(always)]
-fn geometry<const DEPTH: usize, const SUN: bool>(
-    hp: &HeightPass,
-    d: [f32x8; 3],
-    depth: f32x8,
-) -> (f32x8, f32x8, [f32x8; 3]) {
+fn geometry(hp: &HeightPass, d: [f32x8; 3], depth: f32x8) -> (f32x8, f32x8, f32x8) {
     let n2 = d[0].mul_add(d[0], d[1].mul_add(d[1], d[2] * d[2]));
     let inv_n = rsqrt(n2);
     let n = n2 * inv_n;
     let u = crate::light::dot3(d, hp.up);
-    let t = match DEPTH {
+    let t = match hp.depth {
         LINEAR => depth,
         DISTANCE => depth * inv_n,
         _ => {
@@ -402,14 +489,23 @@ fn geometry<const DEPTH: usize, const SUN: bool>(
         f32x8::splat(TINY),
         y,
     );
-    let mut c = hp.colour.map(f32x8::splat);
-    if SUN {
-        for term in &hp.phases[..hp.n_phases] {
-            let p = term.eval(d, inv_n, hp.beta);
-            for ch in 0..3 {
-                c[ch] = p.mul_add(f32x8::splat(term.k[ch]), c[ch]);
-            }
+    (y, n * t, inv_n)
+}
+
+/// The fog colour (clamped) for the view directions `d · inv_n`, any number of phase
+/// functions.
+#[inline(always)]
+fn colour(hp: &HeightPass, d: [f32x8; 3], inv_n: f32x8) -> [f32x8; 3] {
+    let mut c = [
+        f32x8::splat(hp.colour[0]),
+        f32x8::splat(hp.colour[1]),
+        f32x8::splat(hp.colour[2]),
+    ];
+    for term in &hp.phases[..hp.n_phases] {
+        let p = term.eval(d, inv_n, hp.beta);
+        for ch in 0..3 {
+            c[ch] = p.mul_add(f32x8::splat(term.k[ch]), c[ch]);
         }
     }
-    (y, n * t, c.map(clamp_colour))
+    [clamp_colour(c[0]), clamp_colour(c[1]), clamp_colour(c[2])]
 }

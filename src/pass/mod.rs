@@ -431,8 +431,17 @@ fn interleaved<const C: usize>(
 
 /// One row of a colour buffer: loads and stores up to 8 pixels as three channel lanes.
 trait RowColour {
+    /// An interleaved RGB row: [`RowColour::fog_rgb3`] applies.
+    const RGB3: bool = false;
     fn load(&self, x0: usize, n: usize) -> [f32x8; 3];
     fn store(&mut self, x0: usize, n: usize, v: [f32x8; 3]);
+    /// For [`RowColour::RGB3`] rows: `L = L · T + L_in` for the 8 pixels from `x0`, with T
+    /// and L_in given in the buffer's interleaved layout (24 values in three lanes).
+    #[inline(always)]
+    fn fog_rgb3(&mut self, x0: usize, trans: [f32x8; 3], insc: [f32x8; 3]) {
+        let _ = (x0, trans, insc);
+        unreachable!("fog_rgb3 on a row that is not interleaved RGB");
+    }
     /// `L = L · T + L_in` for the `n` pixels from `x0`: one fused multiply-add per channel.
     #[inline(always)]
     fn fog(&mut self, x0: usize, n: usize, trans: [f32x8; 3], insc: [f32x8; 3]) {
@@ -446,19 +455,27 @@ trait RowColour {
 /// lanes (LLVM turns it into shuffles).
 #[inline(always)]
 fn interleave3(v: [f32x8; 3]) -> [f32x8; 3] {
-    let [r, g, b] = v.map(|x| x.to_array());
+    let (r, g, b) = (v[0].to_array(), v[1].to_array(), v[2].to_array());
     [
-        [r[0], g[0], b[0], r[1], g[1], b[1], r[2], g[2]],
-        [b[2], r[3], g[3], b[3], r[4], g[4], b[4], r[5]],
-        [g[5], b[5], r[6], g[6], b[6], r[7], g[7], b[7]],
+        f32x8::new([r[0], g[0], b[0], r[1], g[1], b[1], r[2], g[2]]),
+        f32x8::new([b[2], r[3], g[3], b[3], r[4], g[4], b[4], r[5]]),
+        f32x8::new([g[5], b[5], r[6], g[6], b[6], r[7], g[7], b[7]]),
     ]
-    .map(f32x8::new)
 }
 
 /// A row of an interleaved buffer with `C` floats per pixel (RGB first).
 struct Interleaved<'a, const C: usize>(&'a mut [f32]);
 
 impl<const C: usize> RowColour for Interleaved<'_, C> {
+    const RGB3: bool = C == 3;
+    #[inline(always)]
+    fn fog_rgb3(&mut self, x0: usize, trans: [f32x8; 3], insc: [f32x8; 3]) {
+        let s = &mut self.0[x0 * 3..(x0 + 8) * 3];
+        for j in 0..3 {
+            let c = f32x8::load(&s[8 * j..8 * j + 8]);
+            Lane::mul_add(c, trans[j], insc[j]).store(&mut s[8 * j..8 * j + 8]);
+        }
+    }
     #[inline(always)]
     fn load(&self, x0: usize, n: usize) -> [f32x8; 3] {
         let mut v = [[0.0f32; 8]; 3];
@@ -521,6 +538,11 @@ impl<const C: usize> RowColour for Interleaved<'_, C> {
 struct Planar<'a>([&'a mut [f32]; 3]);
 
 impl<R: RowColour> RowColour for &mut R {
+    const RGB3: bool = R::RGB3;
+    #[inline(always)]
+    fn fog_rgb3(&mut self, x0: usize, trans: [f32x8; 3], insc: [f32x8; 3]) {
+        (**self).fog_rgb3(x0, trans, insc)
+    }
     #[inline(always)]
     fn load(&self, x0: usize, n: usize) -> [f32x8; 3] {
         (**self).load(x0, n)

@@ -1,0 +1,70 @@
+//! One 1920×1080 frame through the framebuffer pass on one thread (the frame of
+//! `benches/pass.rs`: one RGB height fog layer, Henyey–Greenstein sun and ambient,
+//! interleaved RGB; here the lower half at depths 10 to 106, the upper half sky), for
+//! counting instructions:
+//!
+//! `cargo build --release --example passloop && valgrind --tool=callgrind
+//! target/release/examples/passloop` (then `callgrind_annotate --inclusive=yes` and look
+//! for `height::fog_row`; a frame is 259,200 packets of 8 pixels).
+//! `passloop batch` runs the batch API's kernel (`Scene::with_batch_kernel_pass`).
+
+use analytic_fog::pass::{Camera, ColourBuffer, Depth};
+use analytic_fog::{Component, HeightFogLayer, Lighting, Phase, Scene, SceneDesc, Sun};
+use glam::Vec3;
+fn main() {
+    let scene = Scene::new(SceneDesc {
+        height_fog: vec![HeightFogLayer {
+            base_height: 0.0,
+            falloff: 0.1,
+            emission: Vec3::ZERO,
+            components: vec![Component {
+                scattering: Vec3::new(0.02, 0.03, 0.05),
+                absorption: Vec3::ZERO,
+                phase: Phase::HenyeyGreenstein(0.6),
+            }],
+        }],
+        lighting: Lighting {
+            ambient: Vec3::new(0.5, 0.6, 0.7),
+            sun: Some(Sun {
+                direction: Vec3::new(0.3, 0.4, -0.87).normalize(),
+                radiance: Vec3::new(20.0, 18.0, 15.0),
+            }),
+        },
+        ..SceneDesc::default()
+    })
+    .unwrap();
+    let scene = if std::env::args().nth(1).as_deref() == Some("batch") {
+        scene.with_batch_kernel_pass()
+    } else {
+        scene
+    };
+    let (w, h) = (1920, 1080);
+    let cam = Camera::perspective(
+        Vec3::new(0.0, 2.0, 0.0),
+        Vec3::new(0.0, -0.15, -1.0).normalize(),
+        Vec3::Y,
+        1.0,
+        w as f32 / h as f32,
+    )
+    .unwrap();
+    let depth: Vec<f32> = (0..w * h)
+        .map(|i| {
+            if (i / w) < h / 2 {
+                f32::INFINITY
+            } else {
+                10.0 + (i % 97) as f32
+            }
+        })
+        .collect();
+    let mut c = vec![0.5f32; 3 * w * h];
+    scene
+        .fog_pass_single(
+            &cam,
+            w,
+            h,
+            Depth::linear_view(&depth),
+            ColourBuffer::Rgb(&mut c),
+        )
+        .unwrap();
+    println!("{}", c[12345]);
+}
