@@ -36,7 +36,7 @@
 //! the crate's bound 16·2⁻²⁴·(1 + |b·(y₀ − h0)| + |Δ|) (here y₀'s term is resolved in f64).
 //! `tests/pass.rs` checks every pixel of random frames against the batch API.
 
-use super::camera::{DepthPlan, FramePlan};
+use super::camera::{DepthPlan, FramePlan, RowPlan};
 use super::RowColour;
 use crate::kernel::Single;
 use crate::light::Phase;
@@ -354,84 +354,129 @@ fn row<R: RowColour, const PH: usize, const GREY: bool, const FAST: bool>(
     depth: &[f32],
     mut out: R,
 ) {
-    let exp_neg = |x: f32x8| if FAST { exp_neg_fast(x) } else { exp_neg(x) };
     let hp = *hp;
     let rp = plan.row(y);
+    let mut bufs = Buffers::default();
     let width = depth.len();
-    let packets = width.div_ceil(8);
-    let full = width / 8;
-    let expanded = R::RGB3 && PH < 2;
+    let full = width / 8 * 8;
+    for (b, block) in depth[..full].chunks(8 * BLOCK).enumerate() {
+        block_of::<R, PH, GREY, FAST>(&hp, plan, &rp, b * 8 * BLOCK, block, 8, &mut bufs, &mut out);
+    }
+    if full < width {
+        // The tail, padded into one packet (depth 0 in the dead lanes, dropped).
+        let mut padded = [0.0f32; 8];
+        padded[..width - full].copy_from_slice(&depth[full..]);
+        let n = width - full;
+        block_of::<R, PH, GREY, FAST>(&hp, plan, &rp, full, &padded, n, &mut bufs, &mut out);
+    }
+}
+
+/// The per-block buffers of [`row`].
+struct Buffers {
+    ys: [f32x8; BLOCK],
+    gs: [f32x8; BLOCK],
+    /// One phase function: its value; else unused.
+    ps: [f32x8; BLOCK],
+    /// More phase functions: the fog colour; else unused.
+    colours: [[f32x8; 3]; BLOCK],
+}
+
+impl Default for Buffers {
+    fn default() -> Self {
+        let zero = f32x8::splat(0.0);
+        Buffers {
+            ys: [zero; BLOCK],
+            gs: [zero; BLOCK],
+            ps: [zero; BLOCK],
+            colours: [[zero; 3]; BLOCK],
+        }
+    }
+}
+
+/// One block of [`row`]: the packets of `depth` (8 values each, at most [`BLOCK`]) from
+/// column `x_start`, the last one with `last_n` live lanes.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn block_of<R: RowColour, const PH: usize, const GREY: bool, const FAST: bool>(
+    hp: &HeightPass,
+    plan: &FramePlan,
+    rp: &RowPlan,
+    x_start: usize,
+    depth: &[f32],
+    last_n: usize,
+    bufs: &mut Buffers,
+    out: &mut R,
+) {
+    let exp_neg = |x: f32x8| if FAST { exp_neg_fast(x) } else { exp_neg(x) };
     let zero = f32x8::splat(0.0);
     let one = f32x8::splat(1.0);
-    let mut ys = [zero; BLOCK];
-    let mut gs = [zero; BLOCK];
-    // PH = 1: the phase value; else unused.
-    let mut ps = [zero; BLOCK];
-    let mut colours = [[zero; 3]; BLOCK];
-    for p0 in (0..packets).step_by(BLOCK) {
-        let m = (packets - p0).min(BLOCK);
-        // 1. Geometry: y = −Δ (away from 0), n·t, and the phase value or fog colour.
-        for i in 0..m {
-            let x0 = (p0 + i) * 8;
-            let dv = if p0 + i < full {
-                f32x8::load(&depth[x0..x0 + 8])
+    let m = depth.len() / 8;
+    let Buffers {
+        ys,
+        gs,
+        ps,
+        colours,
+    } = bufs;
+    let (ys, gs, ps, colours) = (&mut ys[..m], &mut gs[..m], &mut ps[..m], &mut colours[..m]);
+    // 1. Geometry: y = −Δ (away from 0), n·t, and the phase value or fog colour.
+    let mut x0 = x_start;
+    for (((dv, y), g), (p, c)) in depth
+        .chunks_exact(8)
+        .zip(ys.iter_mut())
+        .zip(gs.iter_mut())
+        .zip(ps.iter_mut().zip(colours.iter_mut()))
+    {
+        // The direction as `FramePlan::ray` forms it (x0 + k is exact in f32, width ≤
+        // 2^24).
+        let xs = f32x8::splat(x0 as f32) + f32x8::new(LANE_X);
+        let u = xs.mul_add(f32x8::splat(plan.su), f32x8::splat(plan.ou));
+        let d = [
+            u.mul_add(f32x8::splat(plan.d_u[0]), f32x8::splat(rp.d[0])),
+            u.mul_add(f32x8::splat(plan.d_u[1]), f32x8::splat(rp.d[1])),
+            u.mul_add(f32x8::splat(plan.d_u[2]), f32x8::splat(rp.d[2])),
+        ];
+        let (yv, nt, inv_n) = geometry(hp, d, f32x8::load(dv));
+        *y = yv;
+        *g = nt;
+        if PH == 1 {
+            *p = hp.phases[0].eval(d, inv_n, hp.beta);
+        } else if PH > 1 {
+            *c = colour(hp, d, inv_n);
+        }
+        x0 += 8;
+    }
+    // 2. g = n·t·E(Δ), E = expm1(y)/y, clamped to f32::MAX so that K_c = 0 gives 0,
+    // not 0·∞ (n·t > 0 wherever E can be ∞: t = 0 gives y = TINY, E = 1).
+    for (g, &y) in gs.iter_mut().zip(ys.iter()) {
+        *g = Lane::min(f32x8::splat(f32::MAX), (expm1(y) / y) * *g);
+    }
+    // 3. T = e^(−K_c·g), L_in = colour · (1 − T), L ← L·T + L_in.
+    let mut x0 = x_start;
+    for (k, ((&g, &p), c)) in gs.iter().zip(ps.iter()).zip(colours.iter()).enumerate() {
+        let n = if k + 1 == m { last_n } else { 8 };
+        if R::RGB3 && PH < 2 && n == 8 {
+            let t = if GREY {
+                expand3(exp_neg(f32x8::splat(hp.k[0]) * g))
             } else {
-                let mut b = [0.0f32; 8];
-                b[..width - x0].copy_from_slice(&depth[x0..]);
-                f32x8::new(b)
+                let g = expand3(g);
+                [
+                    exp_neg(hp.k3[0] * g[0]),
+                    exp_neg(hp.k3[1] * g[1]),
+                    exp_neg(hp.k3[2] * g[2]),
+                ]
             };
-            // The direction as `FramePlan::ray` forms it (x0 + k is exact in f32, width ≤
-            // 2^24).
-            let xs = f32x8::splat(x0 as f32) + f32x8::new(LANE_X);
-            let u = xs.mul_add(f32x8::splat(plan.su), f32x8::splat(plan.ou));
-            let d = [
-                u.mul_add(f32x8::splat(plan.d_u[0]), f32x8::splat(rp.d[0])),
-                u.mul_add(f32x8::splat(plan.d_u[1]), f32x8::splat(rp.d[1])),
-                u.mul_add(f32x8::splat(plan.d_u[2]), f32x8::splat(rp.d[2])),
-            ];
-            let (yv, nt, inv_n) = geometry(&hp, d, dv);
-            ys[i] = yv;
-            gs[i] = nt;
-            if PH == 1 {
-                ps[i] = hp.phases[0].eval(d, inv_n, hp.beta);
-            } else if PH > 1 {
-                colours[i] = colour(&hp, d, inv_n);
-            }
-        }
-        // 2. g = n·t·E(Δ), E = expm1(y)/y, clamped to f32::MAX so that K_c = 0 gives 0,
-        // not 0·∞ (n·t > 0 wherever E can be ∞: t = 0 gives y = TINY, E = 1).
-        for i in 0..m {
-            let yv = ys[i];
-            gs[i] = Lane::min(f32x8::splat(f32::MAX), (expm1(yv) / yv) * gs[i]);
-        }
-        // 3. T = e^(−K_c·g), L_in = colour · (1 − T), L ← L·T + L_in.
-        for i in 0..m {
-            let g = gs[i];
-            let x0 = (p0 + i) * 8;
-            if expanded && p0 + i < full {
-                let t = if GREY {
-                    expand3(exp_neg(f32x8::splat(hp.k[0]) * g))
+            let p = expand3(p);
+            let mut insc = [zero; 3];
+            for j in 0..3 {
+                let c = if PH == 1 {
+                    clamp_colour(p[j].mul_add(hp.phase_k3[j], hp.colour3[j]))
                 } else {
-                    let g = expand3(g);
-                    [
-                        exp_neg(hp.k3[0] * g[0]),
-                        exp_neg(hp.k3[1] * g[1]),
-                        exp_neg(hp.k3[2] * g[2]),
-                    ]
+                    clamp_colour(hp.colour3[j])
                 };
-                let p = expand3(ps[i]);
-                let mut insc = [zero; 3];
-                for j in 0..3 {
-                    let c = if PH == 1 {
-                        clamp_colour(p[j].mul_add(hp.phase_k3[j], hp.colour3[j]))
-                    } else {
-                        clamp_colour(hp.colour3[j])
-                    };
-                    insc[j] = c * (one - t[j]);
-                }
-                out.fog_rgb3(x0, t, insc);
-                continue;
+                insc[j] = c * (one - t[j]);
             }
+            out.fog_rgb3(x0, t, insc);
+        } else {
             let trans = if GREY {
                 [exp_neg(f32x8::splat(hp.k[0]) * g); 3]
             } else {
@@ -446,18 +491,19 @@ fn row<R: RowColour, const PH: usize, const GREY: bool, const FAST: bool>(
                 1 => {
                     let k = hp.phases[0].k;
                     [0, 1, 2].map(|j| {
-                        clamp_colour(ps[i].mul_add(f32x8::splat(k[j]), f32x8::splat(hp.colour[j])))
+                        clamp_colour(p.mul_add(f32x8::splat(k[j]), f32x8::splat(hp.colour[j])))
                     })
                 }
-                _ => colours[i],
+                _ => *c,
             };
             let insc = [
                 c[0] * (one - trans[0]),
                 c[1] * (one - trans[1]),
                 c[2] * (one - trans[2]),
             ];
-            out.fog(x0, (width - x0).min(8), trans, insc);
+            out.fog(x0, n, trans, insc);
         }
+        x0 += 8;
     }
 }
 
