@@ -842,3 +842,41 @@ fn controls_from_json() {
     let s = scene.eval_ray(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.2, 1.0), 1e4);
     assert!(s.transmittance.min_element() >= 0.1 - 1e-6);
 }
+
+/// Linear distance fog whose span `end − start` is subnormal (1/span overflows f32): no
+/// NaN at, before or beyond `end` (found by fuzz/height_fog: 0·∞ at s = end).
+#[test]
+fn linear_fog_with_a_subnormal_span() {
+    let end = 9.1835e-41f32;
+    let scene = Scene::new(SceneDesc {
+        distance_fog: Some(DistanceFog {
+            falloff: Falloff::Linear { start: 0.0, end },
+            colour: Vec3::new(0.5, 0.6, 0.7),
+        }),
+        ..SceneDesc::default()
+    })
+    .unwrap();
+    let o = Vec3::new(7.7e-44, -1.974495e-11, 6.820748e-38);
+    let rays: Vec<(Vec3, Vec3, f32)> = [0.0, end * 0.5, end, end * 2.0, 1.0, f32::INFINITY]
+        .iter()
+        .map(|&t| (o, Vec3::Y, t))
+        .collect();
+    for scalar in [false, true] {
+        for (k, r) in run(&scene, &rays, false, scalar).iter().enumerate() {
+            let t = rays[k].2;
+            for c in 0..3 {
+                let (tau, tr, l) = (r[0][c], r[1][c], r[2][c]);
+                assert!(
+                    tau >= 0.0 && (0.0..=1.0).contains(&tr) && l >= 0.0,
+                    "t {t}: {r:?}"
+                );
+                // Beyond `end` the fog is opaque; before it, nearly clear.
+                if t >= end * 2.0 {
+                    assert_eq!(tr, 0.0, "t {t}: {r:?}");
+                } else if t < end {
+                    assert!(tr > 0.4, "t {t}: {r:?}");
+                }
+            }
+        }
+    }
+}

@@ -350,8 +350,16 @@ pub(crate) fn depth<L: Lane>(
             let sb = L::splat(s_a) + len_f;
             let den = *end - s_a.max(*start);
             let t = if den > 0.0 {
-                ((L::splat(*end) - sb.max(L::splat(*start))) * L::splat(1.0 / den))
-                    .clamp(zero, L::splat(1.0))
+                // 1/den overflows for a subnormal den (end − start below 2.9e-39; found by
+                // fuzz/height_fog: 0·∞ = NaN at s_b = end): divide there instead.
+                let num = L::splat(*end) - sb.max(L::splat(*start));
+                let r = 1.0 / den;
+                let f = if r.is_finite() {
+                    num * L::splat(r)
+                } else {
+                    num / L::splat(den)
+                };
+                f.clamp(zero, L::splat(1.0))
             } else {
                 L::select(len_f.gt(zero), zero, L::splat(1.0))
             };
