@@ -138,6 +138,8 @@ pub(crate) struct HeightPass {
     b: f32,
     /// The kernel's unit up (an axis, with its sign folded into `b`, or the scene's).
     up: [f32; 3],
+    /// The up axis's index, 3 for a general up (a predictable branch per packet).
+    axis: usize,
     /// The fog colour's constant part (ambient, emission, isotropic sun).
     colour: [f32; 3],
     phases: [PhaseTerm; MAX_PHASES],
@@ -178,14 +180,14 @@ impl HeightPass {
             return None;
         }
         let layer = single.layer;
-        // For an axis, up = e_i makes dot(d, up) = d[i] exactly.
-        let up = match scene.axis {
+        // For an axis, up = e_i (dot(d, up) = d[i]).
+        let (up, axis) = match scene.axis {
             UpAxis::Axis(i) => {
                 let mut e = [0.0; 3];
                 e[i] = 1.0;
-                e
+                (e, i)
             }
-            UpAxis::General => scene.up.to_array(),
+            UpAxis::General => (scene.up.to_array(), 3),
         };
         let f = |v: [f32; 3]| v.map(f64::from);
         let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
@@ -262,6 +264,7 @@ impl HeightPass {
             k,
             b: layer.b,
             up,
+            axis,
             colour: layer.colour_const,
             phases,
             n_phases,
@@ -419,16 +422,16 @@ fn block_of<R: RowColour, const PH: usize, const GREY: bool, const FAST: bool>(
     } = bufs;
     let (ys, gs, ps, colours) = (&mut ys[..m], &mut gs[..m], &mut ps[..m], &mut colours[..m]);
     // 1. Geometry: y = −Δ (away from 0), n·t, and the phase value or fog colour.
-    let mut x0 = x_start;
+    // Column indices, exact in f32 (width ≤ 2^24), stepped by 8: the values
+    // `FramePlan::ray` forms from x0 + k.
+    let mut xs = f32x8::splat(x_start as f32) + f32x8::new(LANE_X);
     for (((dv, y), g), (p, c)) in depth
         .chunks_exact(8)
         .zip(ys.iter_mut())
         .zip(gs.iter_mut())
         .zip(ps.iter_mut().zip(colours.iter_mut()))
     {
-        // The direction as `FramePlan::ray` forms it (x0 + k is exact in f32, width ≤
-        // 2^24).
-        let xs = f32x8::splat(x0 as f32) + f32x8::new(LANE_X);
+        // The direction as `FramePlan::ray` forms it.
         let u = xs.mul_add(f32x8::splat(plan.su), f32x8::splat(plan.ou));
         let d = [
             u.mul_add(f32x8::splat(plan.d_u[0]), f32x8::splat(rp.d[0])),
@@ -443,7 +446,7 @@ fn block_of<R: RowColour, const PH: usize, const GREY: bool, const FAST: bool>(
         } else if PH > 1 {
             *c = colour(hp, d, inv_n);
         }
-        x0 += 8;
+        xs += f32x8::splat(8.0);
     }
     // 2. g = n·t·E(Δ), E = expm1(y)/y, clamped to f32::MAX so that K_c = 0 gives 0,
     // not 0·∞ (n·t > 0 wherever E can be ∞: t = 0 gives y = TINY, E = 1).
@@ -514,7 +517,12 @@ fn geometry(hp: &HeightPass, d: [f32x8; 3], depth: f32x8) -> (f32x8, f32x8, f32x
     let n2 = d[0].mul_add(d[0], d[1].mul_add(d[1], d[2] * d[2]));
     let inv_n = rsqrt(n2);
     let n = n2 * inv_n;
-    let u = crate::light::dot3(d, hp.up);
+    let u = match hp.axis {
+        0 => d[0],
+        1 => d[1],
+        2 => d[2],
+        _ => crate::light::dot3(d, hp.up),
+    };
     let t = match hp.depth {
         LINEAR => depth,
         DISTANCE => depth * inv_n,
