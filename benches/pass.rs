@@ -1,7 +1,10 @@
 //! The framebuffer fog pass at 1920×1080: one RGB height fog layer, a Henyey–Greenstein
 //! sun and ambient light, linear view depth (a ground plane and sky), interleaved RGB.
 //!
-//! - `pass/fog_par`, `pass/fog_single`: `Scene::fog_pass` / `Scene::fog_pass_single`.
+//! - `pass/fog_par`, `pass/fog_single`: `Scene::fog_pass` / `Scene::fog_pass_single`
+//!   (this frame runs the pass's own one-layer kernel).
+//! - `pass/fog_single_batch_kernel`: `fog_pass_single` with the batch API's kernel
+//!   (`Scene::with_batch_kernel_pass`, bit-identical to `Scene::evaluate`).
 //! - `pass/plain_par`, `pass/plain_single`: a pass that reads the same depth and colour
 //!   and writes the colour (colour = colour·0.5 + depth·1e-3), with the same row split.
 //! - `pass/naive_scalar_glam`: what a renderer author writes first: per pixel, glam
@@ -224,6 +227,21 @@ fn bench(c: &mut Criterion) {
     g.bench_function("fog_single", |b| {
         b.iter(|| {
             scene
+                .fog_pass_single(
+                    &cam,
+                    W,
+                    H,
+                    Depth::linear_view(black_box(&depth)),
+                    ColourBuffer::Rgb(&mut buf),
+                )
+                .unwrap()
+        })
+    });
+    let batch_kernel = scene.clone().with_batch_kernel_pass();
+    let mut buf = colour.clone();
+    g.bench_function("fog_single_batch_kernel", |b| {
+        b.iter(|| {
+            batch_kernel
                 .fog_pass_single(
                     &cam,
                     W,
