@@ -58,8 +58,10 @@
 //! ## Framebuffer pass
 //! [`Scene::fog_pass`] fogs a renderer's frame in place from a [`pass::Camera`], a depth
 //! buffer and a colour buffer (RGB, RGBA or planar), 8 pixels at a time and in parallel;
-//! each pixel is bit-identical to the batch API's result for the ray
-//! [`pass::Camera::pixel_ray`] returns. See the [`pass`] module.
+//! each pixel is the batch API's result for the ray [`pass::Camera::pixel_ray`] returns:
+//! within the accuracy bound for frames of one height fog layer (the pass's own, cheaper
+//! kernel), bit for bit otherwise and with [`Scene::with_batch_kernel_pass`]. See the
+//! [`pass`] module.
 //!
 //! ## Feature flags
 //! - `serde`: `Serialize`/`Deserialize` for the scene description types (the JSON model

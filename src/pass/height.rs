@@ -121,7 +121,8 @@ impl PhaseTerm {
 }
 
 /// 1/√x: the hardware estimate (relative error < 1.5·2⁻¹², on AMD and Intel) and one
-/// Newton step, which leaves about 1.5·(1.5·2⁻¹²)² + rounding < 4·2⁻²⁴ relative.
+/// Newton step, which leaves about 1.5·(1.5·2⁻¹²)² + rounding < 4·2⁻²⁴ relative. The
+/// estimate's bits differ between CPU vendors, so this kernel's last bits may too.
 #[inline(always)]
 fn rsqrt(x: f32x8) -> f32x8 {
     let r = x.recip_sqrt();

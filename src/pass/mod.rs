@@ -21,7 +21,10 @@
 //! of packets, and an interleaved RGB buffer gets T and L_in in its own layout. Its T and L_in are within the crate's accuracy bound of the f64 reference
 //! (`tests/pass.rs` checks every pixel of random frames: at most 0.68 of the bound) and
 //! within 5e-7 of the batch API's (T absolute, L_in relative to the fog colour; same
-//! test), not bit-identical. Frames outside its ranges (an eye thousands of scale heights
+//! test), not bit-identical. Its |d| and phase denominators use the hardware reciprocal
+//! square root estimate refined by one Newton step: the same bits on every run, thread
+//! count and colour layout on one machine, but CPUs whose estimates differ (AMD and Intel
+//! do) may differ in the last bits, within the bound. Frames outside its ranges (an eye thousands of scale heights
 //! above or below the fog, extinctions beyond 1e±30, see `height.rs`) fall back to the
 //! batch kernel.
 //!
