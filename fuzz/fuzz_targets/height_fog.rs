@@ -50,37 +50,9 @@ use analytic_fog::{
 use glam::Vec3;
 use libfuzzer_sys::fuzz_target;
 
-/// Reads the fuzzer's bytes as little-endian f32 bit patterns and bytes (zeros past the end).
-struct Input<'a> {
-    data: &'a [u8],
-    at: usize,
-}
-
-impl Input<'_> {
-    fn byte(&mut self) -> u8 {
-        let b = self.data.get(self.at).copied().unwrap_or(0);
-        self.at += 1;
-        b
-    }
-    fn f32(&mut self) -> f32 {
-        f32::from_le_bytes([self.byte(), self.byte(), self.byte(), self.byte()])
-    }
-    fn vec3(&mut self) -> Vec3 {
-        Vec3::new(self.f32(), self.f32(), self.f32())
-    }
-    /// A coefficient: its absolute value unless `raw` (so that most scenes are valid).
-    fn coeff3(&mut self, raw: bool) -> Vec3 {
-        let v = self.vec3();
-        if raw {
-            v
-        } else {
-            v.abs()
-        }
-    }
-    fn remaining(&self) -> usize {
-        self.data.len().saturating_sub(self.at)
-    }
-}
+#[path = "input.rs"]
+mod input;
+use input::Input;
 
 const MAX_RAYS: usize = 37;
 
@@ -101,8 +73,8 @@ fn scene_from(inp: &mut Input) -> SceneDesc {
         let n_comp = (inp.byte() % 3) as usize; // 0 components is rejected by Scene::new
         let mut components = Vec::new();
         for _ in 0..n_comp {
-            let scattering = inp.coeff3(raw);
-            let absorption = inp.coeff3(raw);
+            let scattering = inp.abs3(raw);
+            let absorption = inp.abs3(raw);
             let sel = inp.byte();
             let g = inp.f32();
             let phase = match sel % 4 {
@@ -136,11 +108,11 @@ fn scene_from(inp: &mut Input) -> SceneDesc {
             components,
         });
     }
-    let ambient = inp.coeff3(raw);
+    let ambient = inp.abs3(raw);
     let sun = if flags & 0x10 != 0 {
         Some(Sun {
             direction: inp.vec3(),
-            radiance: inp.coeff3(raw),
+            radiance: inp.abs3(raw),
         })
     } else {
         None
@@ -182,13 +154,13 @@ fn controls_from(inp: &mut Input, raw: bool, desc: &mut SceneDesc) {
             1 => Falloff::Exponential { density: pos(inp) },
             2 => Falloff::ExponentialSquared { density: pos(inp) },
             _ => Falloff::Atmospheric {
-                extinction: inp.coeff3(raw),
-                inscattering: inp.coeff3(raw),
+                extinction: inp.abs3(raw),
+                inscattering: inp.abs3(raw),
             },
         };
         desc.distance_fog = Some(DistanceFog {
             falloff,
-            colour: inp.coeff3(raw),
+            colour: inp.abs3(raw),
         });
     }
     if c & 8 != 0 {
@@ -207,13 +179,13 @@ fn controls_from(inp: &mut Input, raw: bool, desc: &mut SceneDesc) {
     }
     if c & 64 != 0 {
         desc.lobe = Some(Lobe {
-            colour: inp.coeff3(raw),
+            colour: inp.abs3(raw),
             exponent: pos(inp),
         });
     }
     if c & 128 != 0 {
         for l in &mut desc.height_fog {
-            l.emission = inp.coeff3(raw);
+            l.emission = inp.abs3(raw);
         }
     }
 }
@@ -309,7 +281,7 @@ fn same(a: f32, b: f32) -> bool {
 }
 
 fuzz_target!(|data: &[u8]| {
-    let mut inp = Input { data, at: 0 };
+    let mut inp = Input::new(data);
     let desc = scene_from(&mut inp);
     // 0: general directions; 1: a unit-direction batch, finite directions normalized (in
     // f64); 2: a unit-direction batch with the raw directions (a broken promise: only the

@@ -26,27 +26,12 @@ use analytic_fog::{Component, HeightFogLayer, Lighting, Phase, Scene, SceneDesc,
 use glam::Vec3;
 use libfuzzer_sys::fuzz_target;
 
-struct Input<'a> {
-    data: &'a [u8],
-    at: usize,
-}
-
-impl Input<'_> {
-    fn byte(&mut self) -> u8 {
-        let b = self.data.get(self.at).copied().unwrap_or(0);
-        self.at += 1;
-        b
-    }
-    fn f32(&mut self) -> f32 {
-        f32::from_le_bytes([self.byte(), self.byte(), self.byte(), self.byte()])
-    }
-    fn vec3(&mut self) -> Vec3 {
-        Vec3::new(self.f32(), self.f32(), self.f32())
-    }
-}
+#[path = "input.rs"]
+mod input;
+use input::Input;
 
 fuzz_target!(|data: &[u8]| {
-    let mut inp = Input { data, at: 0 };
+    let mut inp = Input::new(data);
     let flags = inp.byte();
     let up = match flags & 3 {
         0 => Vec3::Y,

@@ -26,36 +26,9 @@ use analytic_fog::{
 use glam::{Quat, Vec3};
 use libfuzzer_sys::fuzz_target;
 
-struct Input<'a> {
-    data: &'a [u8],
-    at: usize,
-}
-
-impl Input<'_> {
-    fn byte(&mut self) -> u8 {
-        let b = self.data.get(self.at).copied().unwrap_or(0);
-        self.at += 1;
-        b
-    }
-    fn f32(&mut self) -> f32 {
-        f32::from_le_bytes([self.byte(), self.byte(), self.byte(), self.byte()])
-    }
-    fn vec3(&mut self) -> Vec3 {
-        Vec3::new(self.f32(), self.f32(), self.f32())
-    }
-    /// A positive-ish parameter: its absolute value unless `raw`.
-    fn pos3(&mut self, raw: bool) -> Vec3 {
-        let v = self.vec3();
-        if raw {
-            v
-        } else {
-            v.abs()
-        }
-    }
-    fn remaining(&self) -> usize {
-        self.data.len().saturating_sub(self.at)
-    }
-}
+#[path = "input.rs"]
+mod input;
+use input::Input;
 
 const MAX_RAYS: usize = 29;
 
@@ -65,11 +38,11 @@ fn shape_from(inp: &mut Input, raw: bool) -> Shape {
     match sel % 4 {
         0 => Shape::Sphere {
             center,
-            radius: inp.pos3(raw).x,
+            radius: inp.abs3(raw).x,
         },
         1 => Shape::Ellipsoid {
             center,
-            radii: inp.pos3(raw),
+            radii: inp.abs3(raw),
             rotation: Quat::from_xyzw(inp.f32(), inp.f32(), inp.f32(), inp.f32()),
         },
         2 => Shape::Affine {
@@ -77,7 +50,7 @@ fn shape_from(inp: &mut Input, raw: bool) -> Shape {
             matrix: [inp.vec3(), inp.vec3(), inp.vec3()],
         },
         _ => {
-            let half_extents = inp.pos3(raw);
+            let half_extents = inp.abs3(raw);
             let rotation = Quat::from_xyzw(inp.f32(), inp.f32(), inp.f32(), inp.f32());
             let f = inp.f32();
             let edge_fade = if raw { f } else { f.abs().fract() };
@@ -116,10 +89,10 @@ fn scene_from(inp: &mut Input) -> SceneDesc {
         volumes.push(Volume {
             shape,
             profile,
-            scattering: inp.pos3(raw),
-            absorption: inp.pos3(raw),
+            scattering: inp.abs3(raw),
+            absorption: inp.abs3(raw),
             phase,
-            emission: inp.pos3(raw),
+            emission: inp.abs3(raw),
             subtractive: sel & 0x80 != 0,
         });
     }
@@ -129,7 +102,7 @@ fn scene_from(inp: &mut Input) -> SceneDesc {
             falloff: inp.f32(),
             emission: glam::Vec3::ZERO,
             components: vec![Component {
-                scattering: inp.pos3(raw),
+                scattering: inp.abs3(raw),
                 absorption: Vec3::ZERO,
                 phase: Phase::Isotropic,
             }],
@@ -137,11 +110,11 @@ fn scene_from(inp: &mut Input) -> SceneDesc {
     } else {
         vec![]
     };
-    let ambient = inp.pos3(raw);
+    let ambient = inp.abs3(raw);
     let sun = if flags & 0x10 != 0 {
         Some(Sun {
             direction: inp.vec3(),
-            radiance: inp.pos3(raw),
+            radiance: inp.abs3(raw),
         })
     } else {
         None
@@ -215,7 +188,7 @@ fn same(a: f32, b: f32) -> bool {
 }
 
 fuzz_target!(|data: &[u8]| {
-    let mut inp = Input { data, at: 0 };
+    let mut inp = Input::new(data);
     let desc = scene_from(&mut inp);
     let unit = inp.byte() & 1 != 0;
     let n = (inp.remaining() / 28).min(MAX_RAYS);
