@@ -9,7 +9,10 @@
 
 use crate::math::{exp_neg, exp_neg_fast, ldexp, pow2_pair, Lane};
 use crate::medium::distance::DistancePlan;
-use crate::medium::height_fog::{direction_norm, layer_depth, RayGeom, TWO_M64};
+use crate::medium::height_fog::{
+    depth_args, depth_of, depth_phi, depth_with, direction_norm, layer_depth, DepthArgs, RayGeom,
+    TWO_M64,
+};
 use crate::medium::volume::{clamp_colour, Entry};
 use crate::ray::{Outputs, Rays};
 use crate::scene::{LayerPlan, Scene, UpAxis};
@@ -133,6 +136,8 @@ pub(crate) struct Single {
     pub(crate) layer: crate::scene::LayerCore,
     pub(crate) phases: [(crate::light::Phase, [f32; 3]); MAX_PHASES],
     pub(crate) n_phases: usize,
+    /// The three channels' extinction is the same: one τ and one exponential.
+    pub(crate) grey: bool,
     pub(crate) up: [f32; 3],
     pub(crate) sun: Option<[f32; 3]>,
 }
@@ -151,13 +156,16 @@ impl Single {
             layer: l.core,
             phases,
             n_phases: l.colour_sun.len(),
+            grey: l.core.sigma[0] == l.core.sigma[1] && l.core.sigma[1] == l.core.sigma[2],
             up: scene.up.to_array(),
             sun: scene.sun_dir.map(|s| s.to_array()),
         })
     }
 }
 
-/// One height fog layer (see [`is_single_layer`]), inlined into the batch loop.
+/// One height fog layer (see [`is_single_layer`]), inlined into the batch loop: the
+/// five stages below, one after the other. The batch loop runs the same stages over a
+/// block of packets at a time (`run_single`), which gives the same bits.
 #[inline(always)]
 pub(crate) fn eval_packet<
     L: Lane,
@@ -170,67 +178,95 @@ pub(crate) fn eval_packet<
     single: &Single,
     p: &PacketIn<L>,
 ) -> PacketOut<L> {
-    // The tier's transmittance (see `Tier`).
-    let exp_neg = |x: L| if FAST { exp_neg_fast(x) } else { exp_neg(x) };
-    let zero = L::splat(0.0);
-    let one = L::splat(1.0);
-    let mut out = PacketOut {
-        tau: [zero; 3],
-        trans: [one; 3],
-        insc: [zero; 3],
-    };
-    let (geom, _norm, dir, sun) =
-        packet_geometry::<L, AXIS, UNIT>(single.up, single.sun, p, WANT_L);
-
-    {
-        let layer = &single.layer;
-        let (gm, ge) = layer_depth::<L, FAST>(layer, &geom);
-        let grey = layer.sigma[0] == layer.sigma[1] && layer.sigma[1] == layer.sigma[2];
-        if grey {
-            // One optical depth and one exponential for all three channels.
-            let s = layer.sigma[0];
-            let tau = ldexp(gm * L::splat(s.m), ge + L::splat(s.e));
-            out.tau = [tau; 3];
-            if WANT_T || WANT_L {
-                out.trans = [exp_neg(tau); 3];
-            }
-        } else if let Some((e, m)) = layer.shared_scale {
-            // One pair of scale factors for the three channels.
-            // gm·s1 is exact (normal); one rounding by the channel, one (only into the
-            // subnormal range) by s2.
-            let (s1, s2) = pow2_pair(ge + L::splat(e));
-            let g1 = gm * s1;
-            for ch in 0..3 {
-                out.tau[ch] = g1 * L::splat(m[ch]) * s2;
-                if WANT_T || WANT_L {
-                    out.trans[ch] = exp_neg(out.tau[ch]);
-                }
-            }
+    let (args, dir) = single_args::<L, AXIS, UNIT, WANT_L>(single, p);
+    let depth = single_depth::<L, FAST>(single, args);
+    let tau = single_tau::<L>(single, depth);
+    let trans = if WANT_T || WANT_L {
+        if single.grey {
+            [single_trans::<L, FAST>(tau[0]); 3]
         } else {
-            for ch in 0..3 {
-                let s = layer.sigma[ch];
-                out.tau[ch] = ldexp(gm * L::splat(s.m), ge + L::splat(s.e));
-                if WANT_T || WANT_L {
-                    out.trans[ch] = exp_neg(out.tau[ch]);
-                }
-            }
+            tau.map(single_trans::<L, FAST>)
         }
-        if WANT_L {
-            let mut c = layer.colour_const.map(L::splat);
-            if let Some(s) = sun {
-                for (phase, k) in &single.phases[..single.n_phases] {
-                    let p = phase.eval(dir, s);
-                    for ch in 0..3 {
-                        c[ch] = p.mul_add(L::splat(k[ch]), c[ch]);
-                    }
-                }
-            }
+    } else {
+        [L::splat(1.0); 3]
+    };
+    let insc = if WANT_L {
+        single_colour::<L>(single, &dir, &trans)
+    } else {
+        [L::splat(0.0); 3]
+    };
+    PacketOut { tau, trans, insc }
+}
+
+/// Stage 1 of the single-layer kernel: the geometry and the arguments of the layer's
+/// two exponentials (see `layer_depth`), and the unit direction when the colour needs
+/// it (`WANT_L`; zeros otherwise).
+#[inline(always)]
+pub(crate) fn single_args<L: Lane, const AXIS: usize, const UNIT: bool, const WANT_L: bool>(
+    single: &Single,
+    p: &PacketIn<L>,
+) -> (DepthArgs<L>, [L; 3]) {
+    let (geom, _norm, dir, _sun) =
+        packet_geometry::<L, AXIS, UNIT>(single.up, single.sun, p, WANT_L);
+    let args = depth_args(&single.layer, &geom);
+    let dir = if WANT_L { dir } else { [L::splat(0.0); 3] };
+    (args, dir)
+}
+
+/// Stage 2: the layer's geometric depth G = τ/σ0 as (mantissa, exponent).
+#[inline(always)]
+pub(crate) fn single_depth<L: Lane, const FAST: bool>(single: &Single, a: DepthArgs<L>) -> (L, L) {
+    depth_of::<L, FAST>(&single.layer, a)
+}
+
+/// Stage 3: τ per channel from the geometric depth.
+#[inline(always)]
+pub(crate) fn single_tau<L: Lane>(single: &Single, (gm, ge): (L, L)) -> [L; 3] {
+    let layer = &single.layer;
+    if single.grey {
+        // One optical depth (and one exponential) for all three channels.
+        let s = layer.sigma[0];
+        [ldexp(gm * L::splat(s.m), ge + L::splat(s.e)); 3]
+    } else if let Some((e, m)) = layer.shared_scale {
+        // One pair of scale factors for the three channels.
+        // gm·s1 is exact (normal); one rounding by the channel, one (only into the
+        // subnormal range) by s2.
+        let (s1, s2) = pow2_pair(ge + L::splat(e));
+        let g1 = gm * s1;
+        [0, 1, 2].map(|ch| g1 * L::splat(m[ch]) * s2)
+    } else {
+        [0, 1, 2].map(|ch| {
+            let s = layer.sigma[ch];
+            ldexp(gm * L::splat(s.m), ge + L::splat(s.e))
+        })
+    }
+}
+
+/// Stage 4: the transmittance of one channel, in the tier's accuracy (see `Tier`).
+#[inline(always)]
+pub(crate) fn single_trans<L: Lane, const FAST: bool>(tau: L) -> L {
+    if FAST {
+        exp_neg_fast(tau)
+    } else {
+        exp_neg(tau)
+    }
+}
+
+/// Stage 5: the in-scattered light, the layer's fog colour (constant plus the sunlit
+/// phase terms along `dir`) times 1 − T.
+#[inline(always)]
+pub(crate) fn single_colour<L: Lane>(single: &Single, dir: &[L; 3], trans: &[L; 3]) -> [L; 3] {
+    let one = L::splat(1.0);
+    let mut c = single.layer.colour_const.map(L::splat);
+    if let Some(s) = single.sun {
+        for (phase, k) in &single.phases[..single.n_phases] {
+            let p = phase.eval(*dir, s);
             for ch in 0..3 {
-                out.insc[ch] = clamp_colour(c[ch]) * (one - out.trans[ch]);
+                c[ch] = p.mul_add(L::splat(k[ch]), c[ch]);
             }
         }
     }
-    out
+    [0, 1, 2].map(|ch| clamp_colour(c[ch]) * (one - trans[ch]))
 }
 
 /// Several layers and/or fog volumes. Not inlined: one copy per lane type and direction
@@ -625,6 +661,9 @@ fn store<L: Lane>(v: [L; 3], dst: &mut Option<[&mut [f32]; 3]>, i: usize) {
     }
 }
 
+/// Packets per block of the single-layer batch loop.
+const BLOCK: usize = 16;
+
 /// Evaluates a whole batch with lanes of type `L` (full packets), then the tail (for
 /// `f32x8`) as one padded packet.
 fn run<
@@ -681,7 +720,73 @@ fn run<
     }
     let mut scratch = Vec::new();
     if let Some(single) = &single {
-        packets!(|p: PacketIn<L>| eval_packet::<L, AXIS, UNIT, WANT_T, WANT_L, FAST>(single, &p));
+        // In blocks of packets, stage by stage (see `eval_packet`): one packet's chain
+        // (frexp, φ with its division, the exponentials) is long and serial, and a block
+        // lets the CPU overlap the chains of independent packets; each stage also needs
+        // fewer constants, which then stay in registers across the block.
+        let zero = L::splat(0.0);
+        let mut args = [DepthArgs::zero(); BLOCK];
+        let mut phis = [zero; BLOCK];
+        let mut depth = [(zero, zero); BLOCK];
+        let mut dirs = [[zero; 3]; BLOCK];
+        let mut taus = [[zero; 3]; BLOCK];
+        let mut trans = [[zero; 3]; BLOCK];
+        let mut i = 0;
+        while i < full {
+            let m = ((full - i) / L::LANES).min(BLOCK);
+            for k in 0..m {
+                let j = i + k * L::LANES;
+                let p = PacketIn {
+                    o: [
+                        load::<L>(o0, j, ro[0]),
+                        load::<L>(o1, j, ro[1]),
+                        load::<L>(o2, j, ro[2]),
+                    ],
+                    d: [
+                        load::<L>(d0, j, rd[0]),
+                        load::<L>(d1, j, rd[1]),
+                        load::<L>(d2, j, rd[2]),
+                    ],
+                    t: L::load(&t[j..j + L::LANES]),
+                };
+                (args[k], dirs[k]) = single_args::<L, AXIS, UNIT, WANT_L>(single, &p);
+            }
+            // φ and the density exponential in two loops (fewer constants each).
+            if single.layer.b != 0.0 {
+                for k in 0..m {
+                    phis[k] = depth_phi::<L, FAST>(&args[k]);
+                }
+            }
+            for k in 0..m {
+                depth[k] = depth_with::<L, FAST>(&single.layer, &args[k], phis[k]);
+            }
+            for k in 0..m {
+                let tau = single_tau::<L>(single, depth[k]);
+                store(tau, &mut o_tau, i + k * L::LANES);
+                taus[k] = tau;
+            }
+            if WANT_T || WANT_L {
+                // One channel at a time: the exponential's constants stay in registers.
+                for ch in 0..if single.grey { 1 } else { 3 } {
+                    for k in 0..m {
+                        trans[k][ch] = single_trans::<L, FAST>(taus[k][ch]);
+                    }
+                }
+                for k in 0..m {
+                    if single.grey {
+                        trans[k] = [trans[k][0]; 3];
+                    }
+                    store(trans[k], &mut o_tr, i + k * L::LANES);
+                }
+            }
+            if WANT_L {
+                for k in 0..m {
+                    let j = i + k * L::LANES;
+                    store(single_colour(single, &dirs[k], &trans[k]), &mut o_li, j);
+                }
+            }
+            i += m * L::LANES;
+        }
     } else {
         packets!(|p: PacketIn<L>| eval_general::<L, AXIS, UNIT>(
             scene,

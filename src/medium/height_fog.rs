@@ -133,14 +133,60 @@ pub(crate) fn direction_norm<L: Lane>(d: [L; 3]) -> ((L, L), [L; 3]) {
 /// G = m · 2^e, |m| in [2^-38, 2^5] or 0: n_m ≥ 2^-23 (subnormal |d|), t_m ≥ 1,
 /// φ ≥ 2^-14, e^r ≥ 0.7. Times a channel's mantissa (≥ 2^-16 relative to the largest
 /// channel) this stays inside the precondition of [`crate::math::ldexp`].
-#[inline(always)]
 ///
 /// `FAST`: the Fast tier's φ and exponential (`math::fast`, relative errors 3.4e-5 and
 /// 1.4e-5 instead of 1.7 and 1.1 ULP); the range handling is the same.
+///
+/// In two halves, [`depth_args`] (exponent arithmetic) and [`depth_of`] (the two
+/// exponentials), so that a batch loop can run each over a block of packets.
+#[inline(always)]
 pub(crate) fn layer_depth<L: Lane, const FAST: bool>(layer: &LayerCore, g: &RayGeom<L>) -> (L, L) {
+    depth_of::<L, FAST>(layer, depth_args(layer, g))
+}
+
+/// The arguments of the two exponentials of [`layer_depth`], and the factors that do
+/// not depend on them.
+#[derive(Clone, Copy)]
+pub(crate) struct DepthArgs<L> {
+    /// |Δ| clamped to [2^-60, 2^8], the argument of φ.
+    dc: L,
+    /// The exponent at the denser end, u_min (e^(−u_min) is the density there).
+    u_min: L,
+    /// n_m · t_m.
+    m: L,
+    /// n_e + t_e + the exponent of φ's remainder (n_e + t_e for a homogeneous layer).
+    e: L,
+    guard: L,
+}
+
+impl<L: Lane> DepthArgs<L> {
+    /// All zero (a placeholder for buffers).
+    #[inline(always)]
+    pub(crate) fn zero() -> Self {
+        let z = L::splat(0.0);
+        DepthArgs {
+            dc: z,
+            u_min: z,
+            m: z,
+            e: z,
+            guard: z,
+        }
+    }
+}
+
+/// The first half of [`layer_depth`].
+#[inline(always)]
+pub(crate) fn depth_args<L: Lane>(layer: &LayerCore, g: &RayGeom<L>) -> DepthArgs<L> {
+    let zero = L::splat(0.0);
     if layer.b == 0.0 {
         // Homogeneous layer: G = |d| · t.
-        return (g.n_m * g.t_m + g.guard, g.n_e + g.t_e);
+        return DepthArgs {
+            dc: zero,
+            u_min: zero,
+            m: g.n_m * g.t_m,
+            e: g.n_e + g.t_e,
+            guard: g.guard,
+        };
     }
     // Δ = b·u·t as mantissa (|dm| in [1, 8) or 0) and exponent.
     let dm = L::splat(layer.b_split.m) * g.u_m * g.t_m;
@@ -152,11 +198,6 @@ pub(crate) fn layer_depth<L: Lane, const FAST: bool>(layer: &LayerCore, g: &RayG
     // arithmetic has a penalty on many CPUs).
     let dc = (dm.abs() * L::pow2i(de.clamp(L::splat(-100.0), L::splat(PHI_MAX_EXP))))
         .max(L::splat(8.673_617e-19)); // 2^-60
-    let phi = if FAST {
-        exprel_neg_fast(dc)
-    } else {
-        exprel_neg(dc)
-    };
     let phi_e = (L::splat(PHI_MAX_EXP) - de).min(L::splat(0.0));
 
     // The exponent at the denser end, u_min = b·y0 + min(Δ, 0), summed in units of 2^-64
@@ -177,13 +218,45 @@ pub(crate) fn layer_depth<L: Lane, const FAST: bool>(layer: &LayerCore, g: &RayG
     };
     let ds = dm * L::pow2i((de - L::splat(64.0)).clamp(L::splat(-126.0), L::splat(127.0)));
     let u_min = (a0s + ds.min(L::splat(0.0))) * L::splat(TWO64);
-    let (em, ek) = if FAST {
-        exp_split_fast(u_min.neg())
-    } else {
-        exp_split(u_min.neg())
-    };
+    DepthArgs {
+        dc,
+        u_min,
+        m: g.n_m * g.t_m,
+        e: g.n_e + g.t_e + phi_e,
+        guard: g.guard,
+    }
+}
 
-    let m = g.n_m * g.t_m * phi * em + g.guard;
-    let e = g.n_e + g.t_e + phi_e + ek;
-    (m, e)
+/// The second half of [`layer_depth`]: φ(|Δ|) and e^(−u_min), and G assembled.
+#[inline(always)]
+pub(crate) fn depth_of<L: Lane, const FAST: bool>(layer: &LayerCore, a: DepthArgs<L>) -> (L, L) {
+    depth_with::<L, FAST>(layer, &a, depth_phi::<L, FAST>(&a))
+}
+
+/// φ(|Δ|) of [`depth_of`].
+#[inline(always)]
+pub(crate) fn depth_phi<L: Lane, const FAST: bool>(a: &DepthArgs<L>) -> L {
+    if FAST {
+        exprel_neg_fast(a.dc)
+    } else {
+        exprel_neg(a.dc)
+    }
+}
+
+/// The rest of [`depth_of`], given `phi` from [`depth_phi`].
+#[inline(always)]
+pub(crate) fn depth_with<L: Lane, const FAST: bool>(
+    layer: &LayerCore,
+    a: &DepthArgs<L>,
+    phi: L,
+) -> (L, L) {
+    if layer.b == 0.0 {
+        return (a.m + a.guard, a.e);
+    }
+    let (em, ek) = if FAST {
+        exp_split_fast(a.u_min.neg())
+    } else {
+        exp_split(a.u_min.neg())
+    };
+    (a.m * phi * em + a.guard, a.e + ek)
 }
