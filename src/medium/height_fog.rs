@@ -174,11 +174,38 @@ impl<L: Lane> DepthArgs<L> {
     }
 }
 
+/// How [`depth_args`] treats a layer's falloff: 0 homogeneous (b = 0), 1 for
+/// 0 < |b| ≤ 2^40, 2 beyond (see the comment on `a0s`).
+#[inline(always)]
+pub(crate) fn falloff_kind(layer: &LayerCore) -> u8 {
+    if layer.b == 0.0 {
+        0
+    } else if layer.b.abs() <= TWO40 {
+        1
+    } else {
+        2
+    }
+}
+
 /// The first half of [`layer_depth`].
 #[inline(always)]
 pub(crate) fn depth_args<L: Lane>(layer: &LayerCore, g: &RayGeom<L>) -> DepthArgs<L> {
+    match falloff_kind(layer) {
+        0 => depth_args_of::<L, 0>(layer, g),
+        1 => depth_args_of::<L, 1>(layer, g),
+        _ => depth_args_of::<L, 2>(layer, g),
+    }
+}
+
+/// [`depth_args`] for a layer whose [`falloff_kind`] is `KIND` (a batch loop can choose
+/// the kind once instead of per packet).
+#[inline(always)]
+pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
+    layer: &LayerCore,
+    g: &RayGeom<L>,
+) -> DepthArgs<L> {
     let zero = L::splat(0.0);
-    if layer.b == 0.0 {
+    if KIND == 0 {
         // Homogeneous layer: G = |d| · t.
         return DepthArgs {
             dc: zero,
@@ -211,7 +238,7 @@ pub(crate) fn depth_args<L: Lane>(layer: &LayerCore, g: &RayGeom<L>) -> DepthArg
     // cannot overflow) and to b otherwise (b·2^-64 is exact; a0·2^-64 overflows only
     // beyond 2^191, and the min keeps +inf + (−inf) from giving NaN). The sum times 2^64
     // saturates to ±inf, which `exp_split` clamps.
-    let a0s = if layer.b.abs() <= TWO40 {
+    let a0s = if KIND == 1 {
         L::splat(layer.b) * (g.y_s - L::splat(layer.h0 * TWO_M64))
     } else {
         (L::splat(layer.b * TWO_M64) * (g.y - L::splat(layer.h0))).min(L::splat(1.7e38))
@@ -251,6 +278,19 @@ pub(crate) fn depth_with<L: Lane, const FAST: bool>(
     phi: L,
 ) -> (L, L) {
     if layer.b == 0.0 {
+        depth_with_of::<L, FAST, true>(a, phi)
+    } else {
+        depth_with_of::<L, FAST, false>(a, phi)
+    }
+}
+
+/// [`depth_with`] for a homogeneous layer (`HOMOGENEOUS`, b = 0) or not.
+#[inline(always)]
+pub(crate) fn depth_with_of<L: Lane, const FAST: bool, const HOMOGENEOUS: bool>(
+    a: &DepthArgs<L>,
+    phi: L,
+) -> (L, L) {
+    if HOMOGENEOUS {
         return (a.m + a.guard, a.e);
     }
     let (em, ek) = if FAST {
