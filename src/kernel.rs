@@ -7,6 +7,7 @@
 //! (no dot product for ±X/±Y/±Z), unit directions (no |d|), and the outputs wanted, so
 //! that work a call does not need is compiled out rather than skipped at run time.
 
+use crate::light::PhaseEval;
 use crate::math::{exp_neg, exp_neg_fast, ldexp, pow2_pair, Lane};
 use crate::medium::distance::DistancePlan;
 use crate::medium::height_fog::{
@@ -143,6 +144,10 @@ pub(crate) struct Single {
     pub(crate) tau_kind: u8,
     pub(crate) up: [f32; 3],
     pub(crate) sun: Option<[f32; 3]>,
+    /// The phase functions with their constants for the sun's direction (the first
+    /// `n_lit` entries; `n_lit` is 0 without a sun).
+    pub(crate) lit: [(PhaseEval, [f32; 3]); MAX_PHASES],
+    pub(crate) n_lit: usize,
 }
 
 impl Single {
@@ -156,6 +161,10 @@ impl Single {
         let grey = l.core.sigma[0] == l.core.sigma[1] && l.core.sigma[1] == l.core.sigma[2];
         let mut phases = [(crate::light::Phase::Isotropic, [0.0; 3]); MAX_PHASES];
         phases[..l.colour_sun.len()].copy_from_slice(&l.colour_sun);
+        let sun = scene.sun_dir.map(|s| s.to_array());
+        let s = sun.unwrap_or([0.0; 3]);
+        let lit = phases.map(|(p, k)| (PhaseEval::new(p, s), k));
+        let n_lit = if sun.is_some() { l.colour_sun.len() } else { 0 };
         Some(Single {
             layer: l.core,
             phases,
@@ -169,7 +178,9 @@ impl Single {
                 2
             },
             up: scene.up.to_array(),
-            sun: scene.sun_dir.map(|s| s.to_array()),
+            sun,
+            lit,
+            n_lit,
         })
     }
 }
@@ -281,16 +292,36 @@ pub(crate) fn single_trans<L: Lane, const FAST: bool>(tau: L) -> L {
 /// phase terms along `dir`) times 1 − T.
 #[inline(always)]
 pub(crate) fn single_colour<L: Lane>(single: &Single, dir: &[L; 3], trans: &[L; 3]) -> [L; 3] {
-    let one = L::splat(1.0);
     let mut c = single.layer.colour_const.map(L::splat);
-    if let Some(s) = single.sun {
-        for (phase, k) in &single.phases[..single.n_phases] {
-            let p = phase.eval(*dir, s);
-            for ch in 0..3 {
-                c[ch] = p.mul_add(L::splat(k[ch]), c[ch]);
-            }
+    for (phase, k) in &single.lit[..single.n_lit] {
+        let p = phase.eval(*dir);
+        for ch in 0..3 {
+            c[ch] = p.mul_add(L::splat(k[ch]), c[ch]);
         }
     }
+    single_insc(c, trans)
+}
+
+/// [`single_colour`] for exactly one sunlit phase function, whose kind is `KIND`.
+#[inline(always)]
+pub(crate) fn single_colour_one<L: Lane, const KIND: u8>(
+    single: &Single,
+    dir: &[L; 3],
+    trans: &[L; 3],
+) -> [L; 3] {
+    let mut c = single.layer.colour_const.map(L::splat);
+    let (phase, k) = &single.lit[0];
+    let p = phase.eval_kind::<L, KIND>(*dir);
+    for ch in 0..3 {
+        c[ch] = p.mul_add(L::splat(k[ch]), c[ch]);
+    }
+    single_insc(c, trans)
+}
+
+/// The in-scattered light from the fog colour: clamp(c) · (1 − T).
+#[inline(always)]
+fn single_insc<L: Lane>(c: [L; 3], trans: &[L; 3]) -> [L; 3] {
+    let one = L::splat(1.0);
     [0, 1, 2].map(|ch| clamp_colour(c[ch]) * (one - trans[ch]))
 }
 
@@ -906,9 +937,19 @@ fn run_single<
             }
         }
         if WANT_L {
-            for k in 0..m {
-                let j = i + k * L::LANES;
-                store(single_colour(single, &dirs[k], &trans[k]), o_li, j);
+            // One sunlit phase function (the usual case): its kind chosen per block.
+            macro_rules! colour_loop {
+                ($f:expr) => {
+                    for k in 0..m {
+                        store($f(single, &dirs[k], &trans[k]), o_li, i + k * L::LANES);
+                    }
+                };
+            }
+            match (single.n_lit, single.lit[0].0.kind) {
+                (1, 1) => colour_loop!(single_colour_one::<L, 1>),
+                (1, 2) => colour_loop!(single_colour_one::<L, 2>),
+                (1, 3) => colour_loop!(single_colour_one::<L, 3>),
+                _ => colour_loop!(single_colour::<L>),
             }
         }
         i += m * L::LANES;

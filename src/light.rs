@@ -68,50 +68,101 @@ impl Phase {
     }
 
     /// Evaluates the phase function for unit vectors `v` (view direction) and `s` (toward
-    /// the sun), lane-wise.
-    ///
-    /// Henyey–Greenstein's denominator 1 + g² − 2g·cos θ cancels for |g| → 1 near the
-    /// peak; it is computed as (1 − g)² + g·|v − s|² (g ≥ 0) or (1 + g)² − g·|v + s|²
-    /// (g < 0), where every term is non-negative, so the peak (p ≈ 1584 for g = 0.99) keeps
-    /// full relative precision.
+    /// the sun), lane-wise (see [`PhaseEval`]).
     #[inline(always)]
     pub(crate) fn eval<L: Lane>(&self, v: [L; 3], s: [f32; 3]) -> L {
-        use core::f32::consts::PI;
-        match *self {
-            Phase::Isotropic => L::splat(1.0 / (4.0 * PI)),
-            Phase::Rayleigh => {
-                let c = dot3(v, s);
-                c.mul_add(c, L::splat(1.0)) * L::splat(3.0 / (16.0 * PI))
-            }
-            Phase::HenyeyGreenstein(g) => {
-                let num = (1.0 - g) * (1.0 + g) / (4.0 * PI);
-                L::splat(num) / hg_denominator(g, v, s)
-            }
-            Phase::CornetteShanks(g) => {
-                let num = 3.0 / (8.0 * PI) * (1.0 - g) * (1.0 + g) / (2.0 + g * g);
-                let c = dot3(v, s);
-                (L::splat(num) * c.mul_add(c, L::splat(1.0))) / hg_denominator(g, v, s)
-            }
-        }
+        PhaseEval::new(*self, s).eval(v)
     }
 }
 
-/// (1 + g² − 2g·cos θ)^{3/2} for unit `v` and `s`, without cancellation (see
-/// [`Phase::eval`]).
-#[inline(always)]
-fn hg_denominator<L: Lane>(g: f32, v: [L; 3], s: [f32; 3]) -> L {
-    let (base, gg, sign) = if g >= 0.0 {
-        ((1.0 - g) * (1.0 - g), g, -1.0)
-    } else {
-        ((1.0 + g) * (1.0 + g), -g, 1.0)
-    };
-    // |v ∓ s|²
-    let w0 = v[0] + L::splat(sign * s[0]);
-    let w1 = v[1] + L::splat(sign * s[1]);
-    let w2 = v[2] + L::splat(sign * s[2]);
-    let w = w0.mul_add(w0, w1.mul_add(w1, w2 * w2));
-    let q = w.mul_add(L::splat(gg), L::splat(base));
-    q * q.sqrt()
+/// A phase function with its constants for one sun direction computed once (per scene or
+/// batch, not per packet): the numerator, and for Henyey–Greenstein and Cornette–Shanks
+/// the terms of the denominator.
+///
+/// Henyey–Greenstein's denominator 1 + g² − 2g·cos θ cancels for |g| → 1 near the peak;
+/// it is computed as (1 − g)² + g·|v − s|² (g ≥ 0) or (1 + g)² − g·|v + s|² (g < 0),
+/// where every term is non-negative, so the peak (p ≈ 1584 for g = 0.99) keeps full
+/// relative precision.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PhaseEval {
+    /// 0 isotropic, 1 Rayleigh, 2 Henyey–Greenstein, 3 Cornette–Shanks ([`Self::KIND`]).
+    pub(crate) kind: u8,
+    num: f32,
+    /// (1 ∓ g)², |g|, and ∓s: the denominator is (base + gg·|v ∓ s|²)^{3/2}.
+    base: f32,
+    gg: f32,
+    ws: [f32; 3],
+    s: [f32; 3],
+}
+
+impl PhaseEval {
+    pub(crate) fn new(phase: Phase, s: [f32; 3]) -> PhaseEval {
+        use core::f32::consts::PI;
+        let (kind, num, g) = match phase {
+            Phase::Isotropic => (0, 1.0 / (4.0 * PI), 0.0),
+            Phase::Rayleigh => (1, 3.0 / (16.0 * PI), 0.0),
+            Phase::HenyeyGreenstein(g) => (2, (1.0 - g) * (1.0 + g) / (4.0 * PI), g),
+            Phase::CornetteShanks(g) => (
+                3,
+                3.0 / (8.0 * PI) * (1.0 - g) * (1.0 + g) / (2.0 + g * g),
+                g,
+            ),
+        };
+        let (base, gg, sign) = if g >= 0.0 {
+            ((1.0 - g) * (1.0 - g), g, -1.0)
+        } else {
+            ((1.0 + g) * (1.0 + g), -g, 1.0)
+        };
+        PhaseEval {
+            kind,
+            num,
+            base,
+            gg,
+            ws: s.map(|c| sign * c),
+            s,
+        }
+    }
+
+    /// p(cos θ) for the unit view direction `v`, lane-wise.
+    #[inline(always)]
+    pub(crate) fn eval<L: Lane>(&self, v: [L; 3]) -> L {
+        match self.kind {
+            0 => self.eval_kind::<L, 0>(v),
+            1 => self.eval_kind::<L, 1>(v),
+            2 => self.eval_kind::<L, 2>(v),
+            _ => self.eval_kind::<L, 3>(v),
+        }
+    }
+
+    /// [`Self::eval`] for a phase function whose `kind` is `KIND` (a batch loop can
+    /// choose it once instead of per packet).
+    #[inline(always)]
+    pub(crate) fn eval_kind<L: Lane, const KIND: u8>(&self, v: [L; 3]) -> L {
+        match KIND {
+            0 => L::splat(self.num),
+            1 => {
+                let c = dot3(v, self.s);
+                c.mul_add(c, L::splat(1.0)) * L::splat(self.num)
+            }
+            2 => L::splat(self.num) / self.denominator(v),
+            _ => {
+                let c = dot3(v, self.s);
+                (L::splat(self.num) * c.mul_add(c, L::splat(1.0))) / self.denominator(v)
+            }
+        }
+    }
+
+    /// (1 + g² − 2g·cos θ)^{3/2} without cancellation.
+    #[inline(always)]
+    fn denominator<L: Lane>(&self, v: [L; 3]) -> L {
+        // |v ∓ s|²
+        let w0 = v[0] + L::splat(self.ws[0]);
+        let w1 = v[1] + L::splat(self.ws[1]);
+        let w2 = v[2] + L::splat(self.ws[2]);
+        let w = w0.mul_add(w0, w1.mul_add(w1, w2 * w2));
+        let q = w.mul_add(L::splat(self.gg), L::splat(self.base));
+        q * q.sqrt()
+    }
 }
 
 #[inline(always)]
