@@ -17,8 +17,14 @@
 //!   that case: the same stable closed form as `layer_depth` (anchored at the denser end,
 //!   `exprel_neg(|Δ|)`, mantissa/exponent carried so that nothing overflows, NaN for an
 //!   invalid ray), without what the case does not need (no layer loop, no run-time
-//!   output or falloff tests, scene constants in registers, no colour clamp). The setup
-//!   asserts that each hand kernel agrees with `Scene::evaluate` on the bench rays.
+//!   output or falloff tests, scene constants in registers, no colour clamp). The hand
+//!   kernel is staged like the library's single-layer batch loop (`run_single`): blocks of
+//!   16 packets of 8 rays, one loop per stage (loads and exponent arithmetic; φ;
+//!   e^(−u_min) and G; τ; T per channel; colour), intermediates in stack arrays.
+//!   `hand_per_packet/<case>` is the same arithmetic packet by packet (each packet from
+//!   its loads to its stores before the next), which shows what the staging gains. The
+//!   setup asserts that both hand kernels agree with `Scene::evaluate` on the bench rays
+//!   (they give the same bits).
 
 // Channel loops index several parallel arrays.
 #![allow(clippy::needless_range_loop)]
@@ -278,8 +284,77 @@ fn split_ray(u: f32x8, u_shift: Option<f32x8>, t: f32x8) -> (f32x8, f32x8, f32x8
     (u_m, u_e, t_m, t_e)
 }
 
+/// The arguments of the two exponentials of [`depth`] and the factors that do not depend
+/// on them (the first half of `depth`, like the library's `DepthArgs`).
+#[derive(Clone, Copy)]
+struct HandArgs {
+    /// |Δ| clamped to [2^-60, 2^11), the argument of φ.
+    dc: f32x8,
+    /// The dense-end exponent u_min.
+    u_min: f32x8,
+    /// n_m · t_m (t_m for unit directions).
+    m: f32x8,
+    /// n_e + t_e + the exponent of φ's remainder.
+    e: f32x8,
+    guard: f32x8,
+}
+
+impl HandArgs {
+    const ZERO: HandArgs = HandArgs {
+        dc: f32x8::ZERO,
+        u_min: f32x8::ZERO,
+        m: f32x8::ZERO,
+        e: f32x8::ZERO,
+        guard: f32x8::ZERO,
+    };
+}
+
+/// The first half of [`depth`]: everything up to the two exponentials.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn depth_args(
+    l: &HandLayer,
+    norm: Option<(f32x8, f32x8)>,
+    y_s: f32x8,
+    u_m: f32x8,
+    u_e: f32x8,
+    t_m: f32x8,
+    t_e: f32x8,
+    guard: f32x8,
+) -> HandArgs {
+    // Δ = b·u·t as mantissa and exponent.
+    let dm = sp(l.b_m) * u_m * t_m;
+    let de = sp(l.b_e) + u_e + t_e;
+    // |Δ| clamped to [2^-60, 2^11) for φ; the rest of 1/|Δ| in the exponent.
+    let dc = (dm.abs() * f32x8::pow2i(clamp(de, -100.0, PHI_MAX_EXP))).fast_max(sp(8.673_617e-19));
+    let phi_e = (sp(PHI_MAX_EXP) - de).fast_min(sp(0.0));
+    // The dense-end exponent u_min = b·y0 + min(Δ, 0), summed at 2^-64 scale.
+    let a0s = sp(l.b) * (y_s - sp(l.h0_s));
+    let ds = dm * f32x8::pow2i(clamp(de - sp(64.0), -126.0, 127.0));
+    let u_min = (a0s + ds.fast_min(sp(0.0))) * sp(TWO64);
+    let (m, e) = match norm {
+        Some((n_m, n_e)) => (n_m * t_m, n_e + t_e + phi_e),
+        None => (t_m, t_e + phi_e),
+    };
+    HandArgs {
+        dc,
+        u_min,
+        m,
+        e,
+        guard,
+    }
+}
+
+/// The second half of [`depth`], given φ(|Δ|) = `exprel_neg(a.dc)`: e^(−u_min) and G
+/// assembled.
+#[inline(always)]
+fn depth_with(a: &HandArgs, phi: f32x8) -> (f32x8, f32x8) {
+    let (em, ek) = exp_split(a.u_min.neg());
+    (a.m * phi * em + a.guard, a.e + ek)
+}
+
 /// G = τ/σ0 as (m, e): the closed form of `layer_depth`; `norm`: |d| as (n_m, n_e), or
-/// `None` for unit directions.
+/// `None` for unit directions. The two halves in one go (the per-packet kernels).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn depth(
@@ -292,22 +367,8 @@ fn depth(
     t_e: f32x8,
     guard: f32x8,
 ) -> (f32x8, f32x8) {
-    // Δ = b·u·t as mantissa and exponent.
-    let dm = sp(l.b_m) * u_m * t_m;
-    let de = sp(l.b_e) + u_e + t_e;
-    // φ(|Δ|), |Δ| clamped to [2^-60, 2^11); the rest of 1/|Δ| in the exponent.
-    let dc = (dm.abs() * f32x8::pow2i(clamp(de, -100.0, PHI_MAX_EXP))).fast_max(sp(8.673_617e-19));
-    let phi = exprel_neg(dc);
-    let phi_e = (sp(PHI_MAX_EXP) - de).fast_min(sp(0.0));
-    // The dense-end exponent u_min = b·y0 + min(Δ, 0), summed at 2^-64 scale.
-    let a0s = sp(l.b) * (y_s - sp(l.h0_s));
-    let ds = dm * f32x8::pow2i(clamp(de - sp(64.0), -126.0, 127.0));
-    let u_min = (a0s + ds.fast_min(sp(0.0))) * sp(TWO64);
-    let (em, ek) = exp_split(u_min.neg());
-    match norm {
-        Some((n_m, n_e)) => (n_m * t_m * phi * em + guard, n_e + t_e + phi_e + ek),
-        None => (t_m * phi * em + guard, t_e + phi_e + ek),
-    }
+    let a = depth_args(l, norm, y_s, u_m, u_e, t_m, t_e, guard);
+    depth_with(&a, exprel_neg(a.dc))
 }
 
 /// +0 for a valid ray, NaN where u or the height is not finite or t is NaN or negative.
@@ -317,8 +378,9 @@ fn nan_guard(u: f32x8, y_s: f32x8, t: f32x8) -> f32x8 {
     (u - u) + (y_s - y_s) + t.cmp_ge(sp(0.0)).blend(sp(0.0), sp(f32::NAN))
 }
 
-/// (a) grey, one layer, up +Y, unit directions, T only (RGB transmittance written).
-fn hand_grey_y_unit_t(l: &HandLayer, r: &RaySet, tr: &mut [Vec<f32>]) {
+/// (a) packet by packet: each packet of 8 rays from its loads to its stores before the
+/// next (the staged [`hand_grey_y_unit_t`] gives the same bits).
+fn hand_grey_y_unit_t_per_packet(l: &HandLayer, r: &RaySet, tr: &mut [Vec<f32>]) {
     let n = r.t.len();
     assert!(n % 8 == 0);
     let (oy, dy, t) = (&r.o[1][..n], &r.d[1][..n], &r.t[..n]);
@@ -378,9 +440,13 @@ impl HandLight {
     }
 }
 
-/// (b) RGB, one layer, up +Y, unit directions, T and L_in with a Henyey–Greenstein sun
-/// (g ≥ 0) and ambient light.
-fn hand_rgb_y_unit_full(l: &HandLayer, li: &HandLight, r: &RaySet, out: &mut [Vec<f32>]) {
+/// (b) packet by packet (see [`hand_rgb_y_unit_full`]).
+fn hand_rgb_y_unit_full_per_packet(
+    l: &HandLayer,
+    li: &HandLight,
+    r: &RaySet,
+    out: &mut [Vec<f32>],
+) {
     let n = r.t.len();
     assert!(n % 8 == 0);
     let (dx, dy, dz) = (&r.d[0][..n], &r.d[1][..n], &r.d[2][..n]);
@@ -423,8 +489,8 @@ fn hand_rgb_y_unit_full(l: &HandLayer, li: &HandLight, r: &RaySet, out: &mut [Ve
     }
 }
 
-/// (c) grey, one layer, a general up vector (unit, f32), directions of any length, T only.
-fn hand_grey_general_t(l: &HandLayer, up: [f32; 3], r: &RaySet, tr: &mut [Vec<f32>]) {
+/// (c) packet by packet (see [`hand_grey_general_t`]).
+fn hand_grey_general_t_per_packet(l: &HandLayer, up: [f32; 3], r: &RaySet, tr: &mut [Vec<f32>]) {
     let n = r.t.len();
     assert!(n % 8 == 0);
     let (ox, oy, oz) = (&r.o[0][..n], &r.o[1][..n], &r.o[2][..n]);
@@ -462,6 +528,256 @@ fn hand_grey_general_t(l: &HandLayer, up: [f32; 3], r: &RaySet, tr: &mut [Vec<f3
         store(tr, t1, i);
         store(tr, t2, i);
         i += 8;
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Staged hand kernels: the same arithmetic as the per-packet ones above, over blocks of
+// `BLOCK` packets, one loop per stage, like the library's batch loop (`run_single` in
+// `src/kernel.rs`): A loads and exponent arithmetic, B φ, C e^(−u_min) and G, D τ, E T
+// (one loop per channel), F the colour. The intermediate results of a block live in
+// fixed-size arrays on the stack; each stage's loop needs only its own constants. The
+// loops zip the block's slices (in 8-float chunks) with the arrays cut to the block, so
+// that no load, store or array access needs a bounds check.
+
+/// Packets per block (as the library's `BLOCK`).
+const BLOCK: usize = 16;
+
+/// The packets of a block slice (a multiple of 8 floats), loaded.
+#[inline(always)]
+fn packets(s: &[f32]) -> impl Iterator<Item = f32x8> + '_ {
+    s.chunks_exact(8).map(<f32x8 as Lane>::load)
+}
+
+/// The packets of a block slice of an output.
+#[inline(always)]
+fn slots(s: &mut [f32]) -> std::slice::ChunksExactMut<'_, f32> {
+    s.chunks_exact_mut(8)
+}
+
+/// Stores one packet into its 8-float slot.
+#[inline(always)]
+fn put(v: f32x8, slot: &mut [f32]) {
+    slot.copy_from_slice(&v.to_array());
+}
+
+/// (a) grey, one layer, up +Y, unit directions, T only (RGB transmittance written).
+fn hand_grey_y_unit_t(l: &HandLayer, r: &RaySet, tr: &mut [Vec<f32>]) {
+    let n = r.t.len();
+    assert!(n % 8 == 0);
+    let (oy, dy, t) = (&r.o[1][..n], &r.d[1][..n], &r.t[..n]);
+    let [t0, t1, t2] = tr else { unreachable!() };
+    let (t0, t1, t2) = (&mut t0[..n], &mut t1[..n], &mut t2[..n]);
+    let z = f32x8::ZERO;
+    let mut args = [HandArgs::ZERO; BLOCK];
+    let mut phis = [z; BLOCK];
+    let mut g = [(z, z); BLOCK];
+    let mut taus = [z; BLOCK];
+    let mut i = 0;
+    while i < n {
+        let m = ((n - i) / 8).min(BLOCK);
+        let w = m * 8;
+        // The block's slices and arrays.
+        let (oy, dy, t) = (&oy[i..i + w], &dy[i..i + w], &t[i..i + w]);
+        let (t0, t1, t2) = (&mut t0[i..i + w], &mut t1[i..i + w], &mut t2[i..i + w]);
+        let (args, phis, g, taus) = (&mut args[..m], &mut phis[..m], &mut g[..m], &mut taus[..m]);
+        // A: loads and the exponent arithmetic.
+        for (a, ((y, u), tt)) in args
+            .iter_mut()
+            .zip(packets(oy).zip(packets(dy)).zip(packets(t)))
+        {
+            let y_s = y * sp(TWO_M64);
+            let (u_m, u_e, t_m, t_e) = split_ray(u, None, tt);
+            let guard = nan_guard(u, y_s, tt);
+            *a = depth_args(l, None, y_s, u_m, u_e, t_m, t_e, guard);
+        }
+        // B: φ.
+        for (phi, a) in phis.iter_mut().zip(args.iter()) {
+            *phi = exprel_neg(a.dc);
+        }
+        // C: e^(−u_min) and G.
+        for (gk, (a, &phi)) in g.iter_mut().zip(args.iter().zip(phis.iter())) {
+            *gk = depth_with(a, phi);
+        }
+        // D: τ.
+        for (tau, &(gm, ge)) in taus.iter_mut().zip(g.iter()) {
+            *tau = ldexp(gm * sp(l.s_m[0]), ge + sp(l.s_e));
+        }
+        // E: T, stored to the three channels.
+        for (&tau, ((s0, s1), s2)) in taus.iter().zip(slots(t0).zip(slots(t1)).zip(slots(t2))) {
+            let tr = exp_neg(tau);
+            put(tr, s0);
+            put(tr, s1);
+            put(tr, s2);
+        }
+        i += w;
+    }
+}
+
+/// (b) RGB, one layer, up +Y, unit directions, T and L_in with a Henyey–Greenstein sun
+/// (g ≥ 0) and ambient light.
+fn hand_rgb_y_unit_full(l: &HandLayer, li: &HandLight, r: &RaySet, out: &mut [Vec<f32>]) {
+    let n = r.t.len();
+    assert!(n % 8 == 0);
+    let (dx, dy, dz) = (&r.d[0][..n], &r.d[1][..n], &r.d[2][..n]);
+    let (oy, t) = (&r.o[1][..n], &r.t[..n]);
+    let [t0, t1, t2, l0, l1, l2] = out else {
+        unreachable!()
+    };
+    let (t0, t1, t2) = (&mut t0[..n], &mut t1[..n], &mut t2[..n]);
+    let (l0, l1, l2) = (&mut l0[..n], &mut l1[..n], &mut l2[..n]);
+    let z = f32x8::ZERO;
+    let mut args = [HandArgs::ZERO; BLOCK];
+    let mut phis = [z; BLOCK];
+    let mut g = [(z, z); BLOCK];
+    // Channel-major: stage E runs over one channel at a time.
+    let mut taus = [[z; BLOCK]; 3];
+    let mut trs = [[z; BLOCK]; 3];
+    let mut i = 0;
+    while i < n {
+        let m = ((n - i) / 8).min(BLOCK);
+        let w = m * 8;
+        // The block's slices and arrays.
+        let (dx, dy, dz) = (&dx[i..i + w], &dy[i..i + w], &dz[i..i + w]);
+        let (oy, t) = (&oy[i..i + w], &t[i..i + w]);
+        let tb = [&mut t0[i..i + w], &mut t1[i..i + w], &mut t2[i..i + w]];
+        let (l0, l1, l2) = (&mut l0[i..i + w], &mut l1[i..i + w], &mut l2[i..i + w]);
+        let (args, phis, g) = (&mut args[..m], &mut phis[..m], &mut g[..m]);
+        let [tau0, tau1, tau2] = &mut taus;
+        let (tau0, tau1, tau2) = (&mut tau0[..m], &mut tau1[..m], &mut tau2[..m]);
+        let [tr0, tr1, tr2] = &mut trs;
+        let (tr0, tr1, tr2) = (&mut tr0[..m], &mut tr1[..m], &mut tr2[..m]);
+        // A: loads and the exponent arithmetic.
+        for (a, ((y, u), tt)) in args
+            .iter_mut()
+            .zip(packets(oy).zip(packets(dy)).zip(packets(t)))
+        {
+            let y_s = y * sp(TWO_M64);
+            let (u_m, u_e, t_m, t_e) = split_ray(u, None, tt);
+            let guard = nan_guard(u, y_s, tt);
+            *a = depth_args(l, None, y_s, u_m, u_e, t_m, t_e, guard);
+        }
+        // B: φ.
+        for (phi, a) in phis.iter_mut().zip(args.iter()) {
+            *phi = exprel_neg(a.dc);
+        }
+        // C: e^(−u_min) and G.
+        for (gk, (a, &phi)) in g.iter_mut().zip(args.iter().zip(phis.iter())) {
+            *gk = depth_with(a, phi);
+        }
+        // D: τ per channel from one pair of scale factors.
+        let taus_k = tau0.iter_mut().zip(tau1.iter_mut()).zip(tau2.iter_mut());
+        for (((x0, x1), x2), &(gm, ge)) in taus_k.zip(g.iter()) {
+            let (s1, s2) = pow2_pair(ge + sp(l.s_e));
+            let g1 = gm * s1;
+            *x0 = g1 * sp(l.s_m[0]) * s2;
+            *x1 = g1 * sp(l.s_m[1]) * s2;
+            *x2 = g1 * sp(l.s_m[2]) * s2;
+        }
+        // E: T, one channel at a time.
+        for (dst, (tau, tr)) in tb.into_iter().zip([
+            (&*tau0, &mut *tr0),
+            (&*tau1, &mut *tr1),
+            (&*tau2, &mut *tr2),
+        ]) {
+            for (slot, (&x, trk)) in slots(dst).zip(tau.iter().zip(tr.iter_mut())) {
+                *trk = exp_neg(x);
+                put(*trk, slot);
+            }
+        }
+        // F: Henyey–Greenstein: (1 + g² − 2g cos θ) as (1 − g)² + g·|v − s|², and L_in.
+        let dirs = packets(dx).zip(packets(dy)).zip(packets(dz));
+        let trk = tr0.iter().zip(tr1.iter()).zip(tr2.iter());
+        let outs = slots(l0).zip(slots(l1)).zip(slots(l2));
+        for (((v0, v1), v2), (((&r0, &r1), &r2), ((s0, s1), s2))) in dirs.zip(trk.zip(outs)) {
+            let w0 = v0 - sp(li.sun[0]);
+            let w1 = v1 - sp(li.sun[1]);
+            let w2 = v2 - sp(li.sun[2]);
+            let w = w0.mul_add(w0, w1.mul_add(w1, w2 * w2));
+            let q = w.mul_add(sp(li.hg_g), sp(li.hg_base));
+            let p = sp(li.hg_num) / (q * q.sqrt());
+            let ins = |c: usize, tr: f32x8| {
+                p.mul_add(sp(li.k_sun[c]), sp(li.c_const[c])) * (sp(1.0) - tr)
+            };
+            put(ins(0, r0), s0);
+            put(ins(1, r1), s1);
+            put(ins(2, r2), s2);
+        }
+        i += w;
+    }
+}
+
+/// (c) grey, one layer, a general up vector (unit, f32), directions of any length, T only.
+fn hand_grey_general_t(l: &HandLayer, up: [f32; 3], r: &RaySet, tr: &mut [Vec<f32>]) {
+    let n = r.t.len();
+    assert!(n % 8 == 0);
+    let (ox, oy, oz) = (&r.o[0][..n], &r.o[1][..n], &r.o[2][..n]);
+    let (dx, dy, dz) = (&r.d[0][..n], &r.d[1][..n], &r.d[2][..n]);
+    let t = &r.t[..n];
+    let [t0, t1, t2] = tr else { unreachable!() };
+    let (t0, t1, t2) = (&mut t0[..n], &mut t1[..n], &mut t2[..n]);
+    let up_s = up.map(|c| c * TWO_M64);
+    let dot = |v: [f32x8; 3], s: [f32; 3]| {
+        v[0].mul_add(sp(s[0]), v[1].mul_add(sp(s[1]), v[2] * sp(s[2])))
+    };
+    let z = f32x8::ZERO;
+    let mut args = [HandArgs::ZERO; BLOCK];
+    let mut phis = [z; BLOCK];
+    let mut g = [(z, z); BLOCK];
+    let mut taus = [z; BLOCK];
+    let mut i = 0;
+    while i < n {
+        let m = ((n - i) / 8).min(BLOCK);
+        let w = m * 8;
+        // The block's slices and arrays.
+        let (ox, oy, oz) = (&ox[i..i + w], &oy[i..i + w], &oz[i..i + w]);
+        let (dx, dy, dz) = (&dx[i..i + w], &dy[i..i + w], &dz[i..i + w]);
+        let t = &t[i..i + w];
+        let (t0, t1, t2) = (&mut t0[i..i + w], &mut t1[i..i + w], &mut t2[i..i + w]);
+        let (args, phis, g, taus) = (&mut args[..m], &mut phis[..m], &mut g[..m], &mut taus[..m]);
+        // A: loads, |d| and the exponent arithmetic.
+        let os = packets(ox).zip(packets(oy)).zip(packets(oz));
+        let ds = packets(dx).zip(packets(dy)).zip(packets(dz));
+        for (a, ((((o0, o1), o2), ((d0, d1), d2)), tt)) in
+            args.iter_mut().zip(os.zip(ds).zip(packets(t)))
+        {
+            let (o, d) = ([o0, o1, o2], [d0, d1, d2]);
+            // |d| = n_m · 2^n_e and the unit direction, without overflow or underflow.
+            let mx = d[0].abs().fast_max(d[1].abs()).fast_max(d[2].abs());
+            let f = clamp(mx.exponent_field(), 1.0, 253.0);
+            let scale = f32x8::pow2i(sp(127.0) - f);
+            let s = d.map(|c| c * scale);
+            let n_m = s[0].mul_add(s[0], s[1].mul_add(s[1], s[2] * s[2])).sqrt();
+            let n_e = f - sp(127.0);
+            let inv = sp(1.0) / n_m.fast_max(sp(1e-30));
+            let dir = s.map(|c| c * inv);
+            let u = dot(dir, up) * n_m;
+            let y_s = dot(o, up_s);
+            let (u_m, u_e, t_m, t_e) = split_ray(u, Some(n_e), tt);
+            #[allow(clippy::eq_op)] // NaN where |d| is not finite
+            let guard = nan_guard(u, y_s, tt) + (n_m - n_m);
+            *a = depth_args(l, Some((n_m, n_e)), y_s, u_m, u_e, t_m, t_e, guard);
+        }
+        // B: φ.
+        for (phi, a) in phis.iter_mut().zip(args.iter()) {
+            *phi = exprel_neg(a.dc);
+        }
+        // C: e^(−u_min) and G.
+        for (gk, (a, &phi)) in g.iter_mut().zip(args.iter().zip(phis.iter())) {
+            *gk = depth_with(a, phi);
+        }
+        // D: τ.
+        for (tau, &(gm, ge)) in taus.iter_mut().zip(g.iter()) {
+            *tau = ldexp(gm * sp(l.s_m[0]), ge + sp(l.s_e));
+        }
+        // E: T, stored to the three channels.
+        for (&tau, ((s0, s1), s2)) in taus.iter().zip(slots(t0).zip(slots(t1)).zip(slots(t2))) {
+            let tr = exp_neg(tau);
+            put(tr, s0);
+            put(tr, s1);
+            put(tr, s2);
+        }
+        i += w;
     }
 }
 
@@ -600,6 +916,14 @@ fn plan_vs_hand(c: &mut Criterion) {
         for ch in 0..3 {
             assert_close("hand/grey_y_unit_T T", &h.v[3 + ch], &o.v[3 + ch]);
         }
+        hand_grey_y_unit_t_per_packet(&l, &unit, &mut h.v[3..6]);
+        for ch in 0..3 {
+            assert_close(
+                "hand_per_packet/grey_y_unit_T T",
+                &h.v[3 + ch],
+                &o.v[3 + ch],
+            );
+        }
         g.bench_function("plan/grey_y_unit_T", |b| {
             b.iter(|| {
                 sc.evaluate(&black_box(&unit).rays(), o.case(&case))
@@ -608,6 +932,11 @@ fn plan_vs_hand(c: &mut Criterion) {
         });
         g.bench_function("hand/grey_y_unit_T", |b| {
             b.iter(|| hand_grey_y_unit_t(black_box(&l), black_box(&unit), &mut h.v[3..6]))
+        });
+        g.bench_function("hand_per_packet/grey_y_unit_T", |b| {
+            b.iter(|| {
+                hand_grey_y_unit_t_per_packet(black_box(&l), black_box(&unit), &mut h.v[3..6])
+            })
         });
     }
 
@@ -633,6 +962,19 @@ fn plan_vs_hand(c: &mut Criterion) {
                 &o.v[6 + ch],
             );
         }
+        hand_rgb_y_unit_full_per_packet(&l, &li, &unit, &mut h.v[3..9]);
+        for ch in 0..3 {
+            assert_close(
+                "hand_per_packet/rgb_y_unit_full_sun_amb T",
+                &h.v[3 + ch],
+                &o.v[3 + ch],
+            );
+            assert_close(
+                "hand_per_packet/rgb_y_unit_full_sun_amb L_in",
+                &h.v[6 + ch],
+                &o.v[6 + ch],
+            );
+        }
         g.bench_function("plan/rgb_y_unit_full_sun_amb", |b| {
             b.iter(|| {
                 sc.evaluate(&black_box(&unit).rays(), o.case(&case))
@@ -642,6 +984,16 @@ fn plan_vs_hand(c: &mut Criterion) {
         g.bench_function("hand/rgb_y_unit_full_sun_amb", |b| {
             b.iter(|| {
                 hand_rgb_y_unit_full(
+                    black_box(&l),
+                    black_box(&li),
+                    black_box(&unit),
+                    &mut h.v[3..9],
+                )
+            })
+        });
+        g.bench_function("hand_per_packet/rgb_y_unit_full_sun_amb", |b| {
+            b.iter(|| {
+                hand_rgb_y_unit_full_per_packet(
                     black_box(&l),
                     black_box(&li),
                     black_box(&unit),
@@ -672,6 +1024,14 @@ fn plan_vs_hand(c: &mut Criterion) {
                 &o.v[3 + ch],
             );
         }
+        hand_grey_general_t_per_packet(&l, up, &scaled, &mut h.v[3..6]);
+        for ch in 0..3 {
+            assert_close(
+                "hand_per_packet/grey_up_general_nonunit_T T",
+                &h.v[3 + ch],
+                &o.v[3 + ch],
+            );
+        }
         g.bench_function("plan/grey_up_general_nonunit_T", |b| {
             b.iter(|| {
                 sc.evaluate(&black_box(&scaled).rays(), o.case(&case))
@@ -681,6 +1041,16 @@ fn plan_vs_hand(c: &mut Criterion) {
         g.bench_function("hand/grey_up_general_nonunit_T", |b| {
             b.iter(|| {
                 hand_grey_general_t(
+                    black_box(&l),
+                    black_box(up),
+                    black_box(&scaled),
+                    &mut h.v[3..6],
+                )
+            })
+        });
+        g.bench_function("hand_per_packet/grey_up_general_nonunit_T", |b| {
+            b.iter(|| {
+                hand_grey_general_t_per_packet(
                     black_box(&l),
                     black_box(up),
                     black_box(&scaled),

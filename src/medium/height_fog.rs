@@ -148,7 +148,7 @@ pub(crate) fn layer_depth<L: Lane, const FAST: bool>(layer: &LayerCore, g: &RayG
 /// not depend on them.
 #[derive(Clone, Copy)]
 pub(crate) struct DepthArgs<L> {
-    /// |Δ| clamped to [2^-60, 2^8], the argument of φ.
+    /// |Δ| clamped to [2^-60, 2^11), the argument of φ.
     dc: L,
     /// The exponent at the denser end, u_min (e^(−u_min) is the density there).
     u_min: L,
