@@ -923,43 +923,55 @@ fn run_single<
             _ => tau_loop!(2),
         }
         if WANT_T || WANT_L {
-            // One channel at a time: the exponential's constants stay in registers. For T
-            // alone, each value goes straight to the caller's array (the block's part of
-            // it, in chunks: no bounds check per packet); with the colour, through `trans`.
-            let chans = if single.grey { 1 } else { 3 };
-            match o_tr.as_mut() {
-                Some(d) if !WANT_L => {
-                    let [d0, d1, d2] = d.each_mut().map(|s| &mut s[i..i + m * L::LANES]);
-                    if chans == 1 {
+            // One channel at a time: the exponential's constants stay in registers. Each
+            // value goes straight to the caller's array (the block's part of it, in
+            // chunks: no bounds check per packet) and, for the colour, to `trans`.
+            let mut dst = o_tr
+                .as_mut()
+                .map(|d| d.each_mut().map(|s| &mut s[i..i + m * L::LANES]));
+            if single.grey {
+                // One exponential, stored to the three channels.
+                let pairs = taus[..m].iter().zip(trans[..m].iter_mut());
+                match &mut dst {
+                    Some([d0, d1, d2]) => {
                         let chunks = d0
                             .chunks_exact_mut(L::LANES)
                             .zip(d1.chunks_exact_mut(L::LANES))
                             .zip(d2.chunks_exact_mut(L::LANES));
-                        for (tau, ((a, b), c)) in taus.iter().zip(chunks) {
+                        for ((tau, tr_k), ((a, b), c)) in pairs.zip(chunks) {
                             let tr = single_trans::<L, FAST>(tau[0]);
                             tr.store(a);
                             tr.store(b);
                             tr.store(c);
-                        }
-                    } else {
-                        for (ch, dst) in [d0, d1, d2].into_iter().enumerate() {
-                            for (tau, x) in taus.iter().zip(dst.chunks_exact_mut(L::LANES)) {
-                                single_trans::<L, FAST>(tau[ch]).store(x);
+                            if WANT_L {
+                                *tr_k = [tr; 3];
                             }
                         }
                     }
-                }
-                _ => {
-                    for ch in 0..chans {
-                        for k in 0..m {
-                            trans[k][ch] = single_trans::<L, FAST>(taus[k][ch]);
+                    None => {
+                        for (tau, tr_k) in pairs {
+                            *tr_k = [single_trans::<L, FAST>(tau[0]); 3];
                         }
                     }
-                    for k in 0..m {
-                        if single.grey {
-                            trans[k] = [trans[k][0]; 3];
+                }
+            } else {
+                for ch in 0..3 {
+                    let pairs = taus[..m].iter().zip(trans[..m].iter_mut());
+                    match &mut dst {
+                        Some(d) => {
+                            for ((tau, tr_k), x) in pairs.zip(d[ch].chunks_exact_mut(L::LANES)) {
+                                let tr = single_trans::<L, FAST>(tau[ch]);
+                                tr.store(x);
+                                if WANT_L {
+                                    tr_k[ch] = tr;
+                                }
+                            }
                         }
-                        store(trans[k], o_tr, i + k * L::LANES);
+                        None => {
+                            for (tau, tr_k) in pairs {
+                                tr_k[ch] = single_trans::<L, FAST>(tau[ch]);
+                            }
+                        }
                     }
                 }
             }
