@@ -185,9 +185,10 @@ impl Single {
     }
 }
 
-/// One height fog layer (see [`is_single_layer`]), inlined into the batch loop: the
-/// five stages below, one after the other. The batch loop runs the same stages over a
-/// block of packets at a time (`run_single`), which gives the same bits.
+/// One height fog layer (see [`is_single_layer`]): the five stages below, one after the
+/// other, for one packet (the batch's padded tail, the framebuffer pass's packets). The
+/// batch loop runs the same stages over a block of packets at a time (`run_single`, with
+/// stage 2 split in its two exponentials), which gives the same bits.
 #[inline(always)]
 pub(crate) fn eval_packet<
     L: Lane,
@@ -828,8 +829,8 @@ fn run<
 /// gives): one packet's chain (frexp, φ with its division, the exponentials) is long and
 /// serial, and a block lets the CPU overlap the chains of independent packets; each stage
 /// also needs fewer constants, which then stay in registers across the block
-/// (`examples/hotloop.rs`, RGB transmittance on the C peer's typical rays: 5.70 ns per
-/// ray packet by packet, 4.06 in stages).
+/// (`examples/hotloop.rs`, RGB transmittance on the C peer's typical rays: 5.7 ns per
+/// ray packet by packet, 3.5 in stages).
 #[inline(always)]
 fn run_single<
     L: Lane,
