@@ -561,6 +561,38 @@ fn put(v: f32x8, slot: &mut [f32]) {
     slot.copy_from_slice(&v.to_array());
 }
 
+/// Stages B to E of the staged grey kernels over one block: φ, e^(−u_min) and G, τ, and
+/// T stored to the three channels' slots of the block.
+#[inline(always)]
+fn grey_stages_b_to_e(
+    l: &HandLayer,
+    args: &[HandArgs],
+    phis: &mut [f32x8],
+    g: &mut [(f32x8, f32x8)],
+    taus: &mut [f32x8],
+    [t0, t1, t2]: [&mut [f32]; 3],
+) {
+    // B: φ.
+    for (phi, a) in phis.iter_mut().zip(args.iter()) {
+        *phi = exprel_neg(a.dc);
+    }
+    // C: e^(−u_min) and G.
+    for (gk, (a, &phi)) in g.iter_mut().zip(args.iter().zip(phis.iter())) {
+        *gk = depth_with(a, phi);
+    }
+    // D: τ.
+    for (tau, &(gm, ge)) in taus.iter_mut().zip(g.iter()) {
+        *tau = ldexp(gm * sp(l.s_m[0]), ge + sp(l.s_e));
+    }
+    // E: T, stored to the three channels.
+    for (&tau, ((s0, s1), s2)) in taus.iter().zip(slots(t0).zip(slots(t1)).zip(slots(t2))) {
+        let tr = exp_neg(tau);
+        put(tr, s0);
+        put(tr, s1);
+        put(tr, s2);
+    }
+}
+
 /// (a) grey, one layer, up +Y, unit directions, T only (RGB transmittance written).
 fn hand_grey_y_unit_t(l: &HandLayer, r: &RaySet, tr: &mut [Vec<f32>]) {
     let n = r.t.len();
@@ -591,25 +623,7 @@ fn hand_grey_y_unit_t(l: &HandLayer, r: &RaySet, tr: &mut [Vec<f32>]) {
             let guard = nan_guard(u, y_s, tt);
             *a = depth_args(l, None, y_s, u_m, u_e, t_m, t_e, guard);
         }
-        // B: φ.
-        for (phi, a) in phis.iter_mut().zip(args.iter()) {
-            *phi = exprel_neg(a.dc);
-        }
-        // C: e^(−u_min) and G.
-        for (gk, (a, &phi)) in g.iter_mut().zip(args.iter().zip(phis.iter())) {
-            *gk = depth_with(a, phi);
-        }
-        // D: τ.
-        for (tau, &(gm, ge)) in taus.iter_mut().zip(g.iter()) {
-            *tau = ldexp(gm * sp(l.s_m[0]), ge + sp(l.s_e));
-        }
-        // E: T, stored to the three channels.
-        for (&tau, ((s0, s1), s2)) in taus.iter().zip(slots(t0).zip(slots(t1)).zip(slots(t2))) {
-            let tr = exp_neg(tau);
-            put(tr, s0);
-            put(tr, s1);
-            put(tr, s2);
-        }
+        grey_stages_b_to_e(l, args, phis, g, taus, [t0, t1, t2]);
         i += w;
     }
 }
@@ -758,25 +772,7 @@ fn hand_grey_general_t(l: &HandLayer, up: [f32; 3], r: &RaySet, tr: &mut [Vec<f3
             let guard = nan_guard(u, y_s, tt) + (n_m - n_m);
             *a = depth_args(l, Some((n_m, n_e)), y_s, u_m, u_e, t_m, t_e, guard);
         }
-        // B: φ.
-        for (phi, a) in phis.iter_mut().zip(args.iter()) {
-            *phi = exprel_neg(a.dc);
-        }
-        // C: e^(−u_min) and G.
-        for (gk, (a, &phi)) in g.iter_mut().zip(args.iter().zip(phis.iter())) {
-            *gk = depth_with(a, phi);
-        }
-        // D: τ.
-        for (tau, &(gm, ge)) in taus.iter_mut().zip(g.iter()) {
-            *tau = ldexp(gm * sp(l.s_m[0]), ge + sp(l.s_e));
-        }
-        // E: T, stored to the three channels.
-        for (&tau, ((s0, s1), s2)) in taus.iter().zip(slots(t0).zip(slots(t1)).zip(slots(t2))) {
-            let tr = exp_neg(tau);
-            put(tr, s0);
-            put(tr, s1);
-            put(tr, s2);
-        }
+        grey_stages_b_to_e(l, args, phis, g, taus, [t0, t1, t2]);
         i += w;
     }
 }
