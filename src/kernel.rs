@@ -142,6 +142,8 @@ pub(crate) struct Single {
     /// How τ is formed from the layer's depth: 0 grey, 1 one pair of scale factors for
     /// the three channels (`LayerCore::shared_scale`), 2 one saturating ldexp each.
     pub(crate) tau_kind: u8,
+    /// The layer's `shared_scale` where `tau_kind` is 1 (zeros otherwise).
+    pub(crate) shared: (f32, [f32; 3]),
     pub(crate) up: [f32; 3],
     pub(crate) sun: Option<[f32; 3]>,
     /// The phase functions with their constants for the sun's direction (the first
@@ -177,6 +179,7 @@ impl Single {
             } else {
                 2
             },
+            shared: l.core.shared_scale.unwrap_or((0.0, [0.0; 3])),
             up: scene.up.to_array(),
             sun,
             lit,
@@ -264,8 +267,10 @@ pub(crate) fn single_tau<L: Lane, const KIND: u8>(single: &Single, (gm, ge): (L,
         // One optical depth (and one exponential) for all three channels.
         let s = layer.sigma[0];
         [ldexp(gm * L::splat(s.m), ge + L::splat(s.e)); 3]
-    } else if let (1, Some((e, m))) = (KIND, layer.shared_scale) {
-        // One pair of scale factors for the three channels.
+    } else if KIND == 1 {
+        // One pair of scale factors for the three channels (`shared`, the layer's
+        // `shared_scale` taken out of its `Option` once per batch).
+        let (e, m) = single.shared;
         // gm·s1 is exact (normal); one rounding by the channel, one (only into the
         // subnormal range) by s2.
         let (s1, s2) = pow2_pair(ge + L::splat(e));
@@ -303,20 +308,42 @@ pub(crate) fn single_colour<L: Lane>(single: &Single, dir: &[L; 3], trans: &[L; 
     single_insc(c, trans)
 }
 
-/// [`single_colour`] for exactly one sunlit phase function, whose kind is `KIND`.
+/// [`single_colour`] for exactly one sunlit phase function, whose kind is `KIND`: `one`
+/// holds its constants and the constant part of the fog colour (see [`OneLit`]).
 #[inline(always)]
 pub(crate) fn single_colour_one<L: Lane, const KIND: u8>(
-    single: &Single,
+    one: &OneLit,
     dir: &[L; 3],
     trans: &[L; 3],
 ) -> [L; 3] {
-    let mut c = single.layer.colour_const.map(L::splat);
-    let (phase, k) = &single.lit[0];
-    let p = phase.eval_kind::<L, KIND>(*dir);
+    let mut c = one.colour_const.map(L::splat);
+    let p = one.phase.eval_kind::<L, KIND>(*dir);
     for ch in 0..3 {
-        c[ch] = p.mul_add(L::splat(k[ch]), c[ch]);
+        c[ch] = p.mul_add(L::splat(one.k[ch]), c[ch]);
     }
     single_insc(c, trans)
+}
+
+/// The constants of [`single_colour_one`], copied out of [`Single`] into a local before
+/// the colour loop: read through `&Single`, LLVM reloaded all twelve of them on every
+/// packet (it cannot tell that the loop's stores to the caller's arrays leave them
+/// alone).
+#[derive(Clone, Copy)]
+pub(crate) struct OneLit {
+    phase: PhaseEval,
+    k: [f32; 3],
+    colour_const: [f32; 3],
+}
+
+impl OneLit {
+    #[inline(always)]
+    fn of(single: &Single) -> OneLit {
+        OneLit {
+            phase: single.lit[0].0,
+            k: single.lit[0].1,
+            colour_const: single.layer.colour_const,
+        }
+    }
 }
 
 /// The in-scattered light from the fog colour: clamp(c) · (1 − T).
@@ -846,6 +873,11 @@ fn run_single<
 ) {
     let [o_tau, o_tr, o_li] = outs;
     let full = rays[6].len();
+    // A local copy: the loops' stores go through the caller's slices, and LLVM keeps the
+    // constants of a local in registers across them, where through `&Single` it
+    // reloaded (and re-tested) them on every packet.
+    let single_copy = *single;
+    let single = &single_copy;
     // What the kernel reads (see [`reads`]; a single layer has no volumes): known at
     // compile time except whether a sun needs the whole direction.
     let all_d = AXIS == GENERAL || !UNIT || (WANT_L && single.sun.is_some());
@@ -869,32 +901,58 @@ fn run_single<
     while i < full {
         let m = ((full - i) / L::LANES).min(BLOCK);
         // The block's inputs, cut to it, so that the loads below need no bounds checks.
-        let blk = rays.map(|s| &s[i..i + m * L::LANES]);
+        // (Written out: `rays.map(..)` compiled to a call per block.)
+        let w = m * L::LANES;
+        let blk = [
+            &rays[0][i..i + w],
+            &rays[1][i..i + w],
+            &rays[2][i..i + w],
+            &rays[3][i..i + w],
+            &rays[4][i..i + w],
+            &rays[5][i..i + w],
+            &rays[6][i..i + w],
+        ];
         // The per-batch choices (falloff kind, how τ is formed) are made once per block,
         // outside the loops, so that no loop body tests them per packet.
+        // The loads zip the block's arrays in packet-sized chunks (no bounds check per
+        // packet); whether the whole direction is read (`all_d`) is a literal in each
+        // copy of the loop, not a test per packet.
         macro_rules! args_loop {
-            ($kind:literal) => {
-                for k in 0..m {
-                    let at = |c: usize| {
-                        if read::<AXIS>(c, all_d) {
-                            L::load(&blk[c][k * L::LANES..(k + 1) * L::LANES])
+            ($kind:literal, $all_d:literal) => {{
+                let c = |j: usize| blk[j].chunks_exact(L::LANES);
+                let os = c(0).zip(c(1)).zip(c(2));
+                let ds = c(3).zip(c(4)).zip(c(5));
+                let slots = args[..m].iter_mut().zip(dirs[..m].iter_mut());
+                for ((a, dir), ((((o0, o1), o2), ((d0, d1), d2)), t)) in
+                    slots.zip(os.zip(ds).zip(c(6)))
+                {
+                    let at = |j: usize, s: &[f32]| {
+                        if read::<AXIS>(j, $all_d) {
+                            L::load(s)
                         } else {
                             zero
                         }
                     };
                     let p = PacketIn {
-                        o: [at(0), at(1), at(2)],
-                        d: [at(3), at(4), at(5)],
-                        t: at(6),
+                        o: [at(0, o0), at(1, o1), at(2, o2)],
+                        d: [at(3, d0), at(4, d1), at(5, d2)],
+                        t: L::load(t),
                     };
-                    (args[k], dirs[k]) = single_args::<L, AXIS, UNIT, WANT_L, $kind>(single, &p);
+                    let (args_k, dir_k) = single_args::<L, AXIS, UNIT, WANT_L, $kind>(single, &p);
+                    *a = args_k;
+                    if !UNIT {
+                        *dir = dir_k;
+                    }
                 }
-            };
+            }};
         }
-        match kind {
-            0 => args_loop!(0),
-            1 => args_loop!(1),
-            _ => args_loop!(2),
+        match (kind, all_d) {
+            (0, false) => args_loop!(0, false),
+            (0, true) => args_loop!(0, true),
+            (1, false) => args_loop!(1, false),
+            (1, true) => args_loop!(1, true),
+            (_, false) => args_loop!(2, false),
+            (_, true) => args_loop!(2, true),
         }
         // φ and the density exponential in two loops (fewer constants each).
         if kind == 0 {
@@ -910,13 +968,29 @@ fn run_single<
             }
         }
         macro_rules! tau_loop {
-            ($kind:literal) => {
-                for k in 0..m {
-                    let tau = single_tau::<L, $kind>(single, depth[k]);
-                    store(tau, o_tau, i + k * L::LANES);
-                    taus[k] = tau;
+            ($kind:literal) => {{
+                let pairs = taus[..m].iter_mut().zip(depth[..m].iter());
+                match o_tau.as_mut() {
+                    Some([d0, d1, d2]) => {
+                        let w = m * L::LANES;
+                        let chunks = d0[i..i + w]
+                            .chunks_exact_mut(L::LANES)
+                            .zip(d1[i..i + w].chunks_exact_mut(L::LANES))
+                            .zip(d2[i..i + w].chunks_exact_mut(L::LANES));
+                        for ((tau, &g), ((a, b), c)) in pairs.zip(chunks) {
+                            *tau = single_tau::<L, $kind>(single, g);
+                            tau[0].store(a);
+                            tau[1].store(b);
+                            tau[2].store(c);
+                        }
+                    }
+                    None => {
+                        for (tau, &g) in pairs {
+                            *tau = single_tau::<L, $kind>(single, g);
+                        }
+                    }
                 }
-            };
+            }};
         }
         match single.tau_kind {
             0 => tau_loop!(0),
@@ -978,19 +1052,45 @@ fn run_single<
             }
         }
         if WANT_L {
-            // One sunlit phase function (the usual case): its kind chosen per block.
+            // One sunlit phase function (the usual case): its kind chosen per block. The
+            // values go straight to the caller's arrays, in the block's chunks (no bounds
+            // check per packet); unit directions are loaded again here rather than
+            // carried from stage 1 in `dirs` (three loads instead of three stores and
+            // three loads, and stage 1's registers left alone).
             macro_rules! colour_loop {
-                ($f:expr) => {
-                    for k in 0..m {
-                        store($f(single, &dirs[k], &trans[k]), o_li, i + k * L::LANES);
+                ($consts:expr, $f:expr) => {
+                    if let Some([d0, d1, d2]) = o_li.as_mut() {
+                        let consts = $consts;
+                        let w = m * L::LANES;
+                        let outs = d0[i..i + w]
+                            .chunks_exact_mut(L::LANES)
+                            .zip(d1[i..i + w].chunks_exact_mut(L::LANES))
+                            .zip(d2[i..i + w].chunks_exact_mut(L::LANES));
+                        let lit = single.n_lit > 0;
+                        let c = |j: usize| blk[j].chunks_exact(L::LANES);
+                        let ds = c(3).zip(c(4)).zip(c(5));
+                        let per = trans[..m].iter().zip(dirs[..m].iter()).zip(ds);
+                        for (((tr, dir_k), ((x0, x1), x2)), ((a, b), c)) in per.zip(outs) {
+                            let dir = if !UNIT {
+                                *dir_k
+                            } else if lit {
+                                [L::load(x0), L::load(x1), L::load(x2)]
+                            } else {
+                                [zero; 3]
+                            };
+                            let [x, y, z] = $f(&consts, &dir, tr);
+                            x.store(a);
+                            y.store(b);
+                            z.store(c);
+                        }
                     }
                 };
             }
             match (single.n_lit, single.lit[0].0.kind) {
-                (1, 1) => colour_loop!(single_colour_one::<L, 1>),
-                (1, 2) => colour_loop!(single_colour_one::<L, 2>),
-                (1, 3) => colour_loop!(single_colour_one::<L, 3>),
-                _ => colour_loop!(single_colour::<L>),
+                (1, 1) => colour_loop!(OneLit::of(single), single_colour_one::<L, 1>),
+                (1, 2) => colour_loop!(OneLit::of(single), single_colour_one::<L, 2>),
+                (1, 3) => colour_loop!(OneLit::of(single), single_colour_one::<L, 3>),
+                _ => colour_loop!(*single, single_colour::<L>),
             }
         }
         i += m * L::LANES;
