@@ -628,6 +628,79 @@ fn hand_grey_y_unit_t(l: &HandLayer, r: &RaySet, tr: &mut [Vec<f32>]) {
     }
 }
 
+/// (d) and (e): RGB, one layer, up +Y, unit directions; `TRANS`: T only (d), else τ only
+/// (e). τ per channel from one pair of scale factors, as in (b).
+fn hand_rgb_y_unit<const TRANS: bool>(l: &HandLayer, r: &RaySet, out: &mut [Vec<f32>]) {
+    let n = r.t.len();
+    assert!(n % 8 == 0);
+    let (oy, dy, t) = (&r.o[1][..n], &r.d[1][..n], &r.t[..n]);
+    let [o0, o1, o2] = out else { unreachable!() };
+    let (o0, o1, o2) = (&mut o0[..n], &mut o1[..n], &mut o2[..n]);
+    let z = f32x8::ZERO;
+    let mut args = [HandArgs::ZERO; BLOCK];
+    let mut phis = [z; BLOCK];
+    let mut g = [(z, z); BLOCK];
+    let mut taus = [[z; BLOCK]; 3];
+    let mut i = 0;
+    while i < n {
+        let m = ((n - i) / 8).min(BLOCK);
+        let w = m * 8;
+        // The block's slices and arrays.
+        let (oy, dy, t) = (&oy[i..i + w], &dy[i..i + w], &t[i..i + w]);
+        let ob = [&mut o0[i..i + w], &mut o1[i..i + w], &mut o2[i..i + w]];
+        let (args, phis, g) = (&mut args[..m], &mut phis[..m], &mut g[..m]);
+        let [tau0, tau1, tau2] = &mut taus;
+        let (tau0, tau1, tau2) = (&mut tau0[..m], &mut tau1[..m], &mut tau2[..m]);
+        // A: loads and the exponent arithmetic.
+        for (a, ((y, u), tt)) in args
+            .iter_mut()
+            .zip(packets(oy).zip(packets(dy)).zip(packets(t)))
+        {
+            let y_s = y * sp(TWO_M64);
+            let (u_m, u_e, t_m, t_e) = split_ray(u, None, tt);
+            let guard = nan_guard(u, y_s, tt);
+            *a = depth_args(l, None, y_s, u_m, u_e, t_m, t_e, guard);
+        }
+        // B: φ.
+        for (phi, a) in phis.iter_mut().zip(args.iter()) {
+            *phi = exprel_neg(a.dc);
+        }
+        // C: e^(−u_min) and G.
+        for (gk, (a, &phi)) in g.iter_mut().zip(args.iter().zip(phis.iter())) {
+            *gk = depth_with(a, phi);
+        }
+        if TRANS {
+            // D: τ per channel from one pair of scale factors.
+            let taus_k = tau0.iter_mut().zip(tau1.iter_mut()).zip(tau2.iter_mut());
+            for (((x0, x1), x2), &(gm, ge)) in taus_k.zip(g.iter()) {
+                let (s1, s2) = pow2_pair(ge + sp(l.s_e));
+                let g1 = gm * s1;
+                *x0 = g1 * sp(l.s_m[0]) * s2;
+                *x1 = g1 * sp(l.s_m[1]) * s2;
+                *x2 = g1 * sp(l.s_m[2]) * s2;
+            }
+            // E: T, one channel at a time.
+            for (dst, tau) in ob.into_iter().zip([&*tau0, &*tau1, &*tau2]) {
+                for (slot, &x) in slots(dst).zip(tau.iter()) {
+                    put(exp_neg(x), slot);
+                }
+            }
+        } else {
+            // D: τ per channel, stored.
+            let [s0, s1, s2] = ob;
+            let outs = slots(s0).zip(slots(s1)).zip(slots(s2));
+            for (((d0, d1), d2), &(gm, ge)) in outs.zip(g.iter()) {
+                let (p1, p2) = pow2_pair(ge + sp(l.s_e));
+                let g1 = gm * p1;
+                put(g1 * sp(l.s_m[0]) * p2, d0);
+                put(g1 * sp(l.s_m[1]) * p2, d1);
+                put(g1 * sp(l.s_m[2]) * p2, d2);
+            }
+        }
+        i += w;
+    }
+}
+
 /// (b) RGB, one layer, up +Y, unit directions, T and L_in with a Henyey–Greenstein sun
 /// (g ≥ 0) and ambient light.
 fn hand_rgb_y_unit_full(l: &HandLayer, li: &HandLight, r: &RaySet, out: &mut [Vec<f32>]) {
@@ -996,6 +1069,39 @@ fn plan_vs_hand(c: &mut Criterion) {
                     &mut h.v[3..9],
                 )
             })
+        });
+    }
+
+    // (d) RGB, +Y, unit, T only; (e) the same, τ only.
+    for (name, trans, at) in [("rgb_y_unit_T", true, 3), ("rgb_y_unit_tau", false, 0)] {
+        let case = Case {
+            name,
+            tau: !trans,
+            trans,
+            ..Case::BASE
+        };
+        let sc = scene(&case);
+        let l = HandLayer::new(B, H0, RGB, 1.0);
+        sc.evaluate(&unit.rays(), o.case(&case)).unwrap();
+        let hand = |l: &HandLayer, r: &RaySet, out: &mut [Vec<f32>]| {
+            if trans {
+                hand_rgb_y_unit::<true>(l, r, out)
+            } else {
+                hand_rgb_y_unit::<false>(l, r, out)
+            }
+        };
+        hand(&l, &unit, &mut h.v[at..at + 3]);
+        for ch in 0..3 {
+            assert_close(&format!("hand/{name}"), &h.v[at + ch], &o.v[at + ch]);
+        }
+        g.bench_function(format!("plan/{name}"), |b| {
+            b.iter(|| {
+                sc.evaluate(&black_box(&unit).rays(), o.case(&case))
+                    .unwrap()
+            })
+        });
+        g.bench_function(format!("hand/{name}"), |b| {
+            b.iter(|| hand(black_box(&l), black_box(&unit), &mut h.v[at..at + 3]))
         });
     }
 

@@ -978,10 +978,14 @@ fn run_single<
                             .zip(d1[i..i + w].chunks_exact_mut(L::LANES))
                             .zip(d2[i..i + w].chunks_exact_mut(L::LANES));
                         for ((tau, &g), ((a, b), c)) in pairs.zip(chunks) {
-                            *tau = single_tau::<L, $kind>(single, g);
-                            tau[0].store(a);
-                            tau[1].store(b);
-                            tau[2].store(c);
+                            let x = single_tau::<L, $kind>(single, g);
+                            x[0].store(a);
+                            x[1].store(b);
+                            x[2].store(c);
+                            // (Kept for the later stages only: τ alone is stored once.)
+                            if WANT_T || WANT_L {
+                                *tau = x;
+                            }
                         }
                     }
                     None => {
