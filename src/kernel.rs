@@ -1206,10 +1206,30 @@ pub(crate) fn run_packets<const UNIT: bool, S: PacketIo>(
         io: &mut S,
     ) {
         if let Some(single) = Single::of(scene) {
-            for i in 0..count {
-                let p = io.make(i);
-                let r = eval_packet::<f32x8, AXIS, UNIT, true, true, FAST>(&single, &p);
-                io.take(i, &r);
+            // In blocks, stage by stage, like `run_single`: the packets of a block are
+            // made, evaluated by `eval_block` and handed back in three loops.
+            let z = f32x8::splat(0.0);
+            let mut ins = [PacketIn {
+                o: [z; 3],
+                d: [z; 3],
+                t: z,
+            }; BLOCK];
+            let mut outs = [PacketOut {
+                tau: [z; 3],
+                trans: [z; 3],
+                insc: [z; 3],
+            }; BLOCK];
+            let mut i = 0;
+            while i < count {
+                let m = (count - i).min(BLOCK);
+                for (k, p) in ins[..m].iter_mut().enumerate() {
+                    *p = io.make(i + k);
+                }
+                eval_block::<AXIS, UNIT, FAST>(&single, &ins[..m], &mut outs[..m]);
+                for (k, r) in outs[..m].iter().enumerate() {
+                    io.take(i + k, r);
+                }
+                i += m;
             }
         } else {
             let mut scratch = Vec::new();
@@ -1237,6 +1257,90 @@ pub(crate) fn run_packets<const UNIT: bool, S: PacketIo>(
         (UpAxis::Axis(1), true) => go::<1, UNIT, true, S>(scene, volumes, count, io),
         (UpAxis::Axis(2), true) => go::<2, UNIT, true, S>(scene, volumes, count, io),
         (_, true) => go::<GENERAL, UNIT, true, S>(scene, volumes, count, io),
+    }
+}
+
+/// [`eval_packet`]`::<f32x8, AXIS, UNIT, true, true, FAST>` for each packet of `ins` (at
+/// most [`BLOCK`]), stage by stage over the block as in [`run_single`]: the same stage
+/// functions in the same order, so the same bits. T and L_in are always formed (the
+/// pass wants both); τ too.
+#[inline(always)]
+fn eval_block<const AXIS: usize, const UNIT: bool, const FAST: bool>(
+    single: &Single,
+    ins: &[PacketIn<f32x8>],
+    outs: &mut [PacketOut<f32x8>],
+) {
+    type L = f32x8;
+    let single_copy = *single;
+    let single = &single_copy;
+    let z = L::splat(0.0);
+    let mut args = [DepthArgs::zero(); BLOCK];
+    let mut dirs = [[z; 3]; BLOCK];
+    let mut phis = [z; BLOCK];
+    let mut depth = [(z, z); BLOCK];
+    let m = ins.len().min(outs.len()).min(BLOCK);
+    let (ins, outs) = (&ins[..m], &mut outs[..m]);
+    let kind = falloff_kind(&single.layer);
+    macro_rules! args_loop {
+        ($kind:literal) => {
+            for ((a, dir), p) in args.iter_mut().zip(dirs.iter_mut()).zip(ins) {
+                (*a, *dir) = single_args::<L, AXIS, UNIT, true, $kind>(single, p);
+            }
+        };
+    }
+    match kind {
+        0 => args_loop!(0),
+        1 => args_loop!(1),
+        _ => args_loop!(2),
+    }
+    if kind == 0 {
+        for (d, a) in depth.iter_mut().zip(&args[..m]) {
+            *d = depth_with_of::<L, FAST, true>(a, z);
+        }
+    } else {
+        for (phi, a) in phis.iter_mut().zip(&args[..m]) {
+            *phi = depth_phi::<L, FAST>(a);
+        }
+        for ((d, a), &phi) in depth.iter_mut().zip(&args[..m]).zip(&phis) {
+            *d = depth_with_of::<L, FAST, false>(a, phi);
+        }
+    }
+    macro_rules! tau_loop {
+        ($kind:literal) => {
+            for (r, &g) in outs.iter_mut().zip(&depth) {
+                r.tau = single_tau::<L, $kind>(single, g);
+            }
+        };
+    }
+    match single.tau_kind {
+        0 => tau_loop!(0),
+        1 => tau_loop!(1),
+        _ => tau_loop!(2),
+    }
+    if single.grey {
+        for r in outs.iter_mut() {
+            r.trans = [single_trans::<L, FAST>(r.tau[0]); 3];
+        }
+    } else {
+        for ch in 0..3 {
+            for r in outs.iter_mut() {
+                r.trans[ch] = single_trans::<L, FAST>(r.tau[ch]);
+            }
+        }
+    }
+    macro_rules! colour_loop {
+        ($consts:expr, $f:expr) => {{
+            let consts = $consts;
+            for (r, dir) in outs.iter_mut().zip(&dirs) {
+                r.insc = $f(&consts, dir, &r.trans);
+            }
+        }};
+    }
+    match (single.n_lit, single.lit[0].0.kind) {
+        (1, 1) => colour_loop!(OneLit::of(single), single_colour_one::<L, 1>),
+        (1, 2) => colour_loop!(OneLit::of(single), single_colour_one::<L, 2>),
+        (1, 3) => colour_loop!(OneLit::of(single), single_colour_one::<L, 3>),
+        _ => colour_loop!(*single, single_colour::<L>),
     }
 }
 
