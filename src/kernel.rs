@@ -954,19 +954,7 @@ fn run_single<
             (_, false) => args_loop!(2, false),
             (_, true) => args_loop!(2, true),
         }
-        // φ and the density exponential in two loops (fewer constants each).
-        if kind == 0 {
-            for k in 0..m {
-                depth[k] = depth_with_of::<L, FAST, true>(&args[k], zero);
-            }
-        } else {
-            for k in 0..m {
-                phis[k] = depth_phi::<L, FAST>(&args[k]);
-            }
-            for k in 0..m {
-                depth[k] = depth_with_of::<L, FAST, false>(&args[k], phis[k]);
-            }
-        }
+        depth_stages::<L, FAST>(kind, &args[..m], &mut phis, &mut depth);
         macro_rules! tau_loop {
             ($kind:literal) => {{
                 let pairs = taus[..m].iter_mut().zip(depth[..m].iter());
@@ -1260,6 +1248,31 @@ pub(crate) fn run_packets<const UNIT: bool, S: PacketIo>(
     }
 }
 
+/// The depth stages of a block ([`run_single`], [`eval_block`]): φ and the density
+/// exponential in two loops (fewer constants each), giving the geometric depth of each
+/// packet of `args` in `depth` (`kind`: the layer's [`falloff_kind`]; a homogeneous layer
+/// needs neither exponential).
+#[inline(always)]
+fn depth_stages<L: Lane, const FAST: bool>(
+    kind: u8,
+    args: &[DepthArgs<L>],
+    phis: &mut [L; BLOCK],
+    depth: &mut [(L, L); BLOCK],
+) {
+    if kind == 0 {
+        for (d, a) in depth.iter_mut().zip(args) {
+            *d = depth_with_of::<L, FAST, true>(a, L::splat(0.0));
+        }
+    } else {
+        for (phi, a) in phis.iter_mut().zip(args) {
+            *phi = depth_phi::<L, FAST>(a);
+        }
+        for ((d, a), &phi) in depth.iter_mut().zip(args).zip(phis.iter()) {
+            *d = depth_with_of::<L, FAST, false>(a, phi);
+        }
+    }
+}
+
 /// [`eval_packet`]`::<f32x8, AXIS, UNIT, true, true, FAST>` for each packet of `ins` (at
 /// most [`BLOCK`]), stage by stage over the block as in [`run_single`]: the same stage
 /// functions in the same order, so the same bits. T and L_in are always formed (the
@@ -1293,18 +1306,7 @@ fn eval_block<const AXIS: usize, const UNIT: bool, const FAST: bool>(
         1 => args_loop!(1),
         _ => args_loop!(2),
     }
-    if kind == 0 {
-        for (d, a) in depth.iter_mut().zip(&args[..m]) {
-            *d = depth_with_of::<L, FAST, true>(a, z);
-        }
-    } else {
-        for (phi, a) in phis.iter_mut().zip(&args[..m]) {
-            *phi = depth_phi::<L, FAST>(a);
-        }
-        for ((d, a), &phi) in depth.iter_mut().zip(&args[..m]).zip(&phis) {
-            *d = depth_with_of::<L, FAST, false>(a, phi);
-        }
-    }
+    depth_stages::<L, FAST>(kind, &args[..m], &mut phis, &mut depth);
     macro_rules! tau_loop {
         ($kind:literal) => {
             for (r, &g) in outs.iter_mut().zip(&depth) {
