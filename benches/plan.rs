@@ -561,6 +561,47 @@ fn put(v: f32x8, slot: &mut [f32]) {
     slot.copy_from_slice(&v.to_array());
 }
 
+/// Stage A of the staged kernels for up +Y and unit directions: loads (oy, dy, t) and the
+/// exponent arithmetic, one `HandArgs` per packet of the block.
+#[inline(always)]
+fn stage_a_y_unit(l: &HandLayer, oy: &[f32], dy: &[f32], t: &[f32], args: &mut [HandArgs]) {
+    for (a, ((y, u), tt)) in args
+        .iter_mut()
+        .zip(packets(oy).zip(packets(dy)).zip(packets(t)))
+    {
+        let y_s = y * sp(TWO_M64);
+        let (u_m, u_e, t_m, t_e) = split_ray(u, None, tt);
+        let guard = nan_guard(u, y_s, tt);
+        *a = depth_args(l, None, y_s, u_m, u_e, t_m, t_e, guard);
+    }
+}
+
+/// Stages B and C of the staged kernels: φ, then e^(−u_min) and G.
+#[inline(always)]
+fn stages_b_c(args: &[HandArgs], phis: &mut [f32x8], g: &mut [(f32x8, f32x8)]) {
+    // B: φ.
+    for (phi, a) in phis.iter_mut().zip(args.iter()) {
+        *phi = exprel_neg(a.dc);
+    }
+    // C: e^(−u_min) and G.
+    for (gk, (a, &phi)) in g.iter_mut().zip(args.iter().zip(phis.iter())) {
+        *gk = depth_with(a, phi);
+    }
+}
+
+/// Stage D of the RGB kernels: τ per channel from one pair of scale factors.
+#[inline(always)]
+fn stage_d_rgb(l: &HandLayer, g: &[(f32x8, f32x8)], [tau0, tau1, tau2]: [&mut [f32x8]; 3]) {
+    let taus_k = tau0.iter_mut().zip(tau1.iter_mut()).zip(tau2.iter_mut());
+    for (((x0, x1), x2), &(gm, ge)) in taus_k.zip(g.iter()) {
+        let (s1, s2) = pow2_pair(ge + sp(l.s_e));
+        let g1 = gm * s1;
+        *x0 = g1 * sp(l.s_m[0]) * s2;
+        *x1 = g1 * sp(l.s_m[1]) * s2;
+        *x2 = g1 * sp(l.s_m[2]) * s2;
+    }
+}
+
 /// Stages B to E of the staged grey kernels over one block: φ, e^(−u_min) and G, τ, and
 /// T stored to the three channels' slots of the block.
 #[inline(always)]
@@ -572,14 +613,7 @@ fn grey_stages_b_to_e(
     taus: &mut [f32x8],
     [t0, t1, t2]: [&mut [f32]; 3],
 ) {
-    // B: φ.
-    for (phi, a) in phis.iter_mut().zip(args.iter()) {
-        *phi = exprel_neg(a.dc);
-    }
-    // C: e^(−u_min) and G.
-    for (gk, (a, &phi)) in g.iter_mut().zip(args.iter().zip(phis.iter())) {
-        *gk = depth_with(a, phi);
-    }
+    stages_b_c(args, phis, g);
     // D: τ.
     for (tau, &(gm, ge)) in taus.iter_mut().zip(g.iter()) {
         *tau = ldexp(gm * sp(l.s_m[0]), ge + sp(l.s_e));
@@ -613,16 +647,7 @@ fn hand_grey_y_unit_t(l: &HandLayer, r: &RaySet, tr: &mut [Vec<f32>]) {
         let (oy, dy, t) = (&oy[i..i + w], &dy[i..i + w], &t[i..i + w]);
         let (t0, t1, t2) = (&mut t0[i..i + w], &mut t1[i..i + w], &mut t2[i..i + w]);
         let (args, phis, g, taus) = (&mut args[..m], &mut phis[..m], &mut g[..m], &mut taus[..m]);
-        // A: loads and the exponent arithmetic.
-        for (a, ((y, u), tt)) in args
-            .iter_mut()
-            .zip(packets(oy).zip(packets(dy)).zip(packets(t)))
-        {
-            let y_s = y * sp(TWO_M64);
-            let (u_m, u_e, t_m, t_e) = split_ray(u, None, tt);
-            let guard = nan_guard(u, y_s, tt);
-            *a = depth_args(l, None, y_s, u_m, u_e, t_m, t_e, guard);
-        }
+        stage_a_y_unit(l, oy, dy, t, args);
         grey_stages_b_to_e(l, args, phis, g, taus, [t0, t1, t2]);
         i += w;
     }
@@ -651,34 +676,10 @@ fn hand_rgb_y_unit<const TRANS: bool>(l: &HandLayer, r: &RaySet, out: &mut [Vec<
         let (args, phis, g) = (&mut args[..m], &mut phis[..m], &mut g[..m]);
         let [tau0, tau1, tau2] = &mut taus;
         let (tau0, tau1, tau2) = (&mut tau0[..m], &mut tau1[..m], &mut tau2[..m]);
-        // A: loads and the exponent arithmetic.
-        for (a, ((y, u), tt)) in args
-            .iter_mut()
-            .zip(packets(oy).zip(packets(dy)).zip(packets(t)))
-        {
-            let y_s = y * sp(TWO_M64);
-            let (u_m, u_e, t_m, t_e) = split_ray(u, None, tt);
-            let guard = nan_guard(u, y_s, tt);
-            *a = depth_args(l, None, y_s, u_m, u_e, t_m, t_e, guard);
-        }
-        // B: φ.
-        for (phi, a) in phis.iter_mut().zip(args.iter()) {
-            *phi = exprel_neg(a.dc);
-        }
-        // C: e^(−u_min) and G.
-        for (gk, (a, &phi)) in g.iter_mut().zip(args.iter().zip(phis.iter())) {
-            *gk = depth_with(a, phi);
-        }
+        stage_a_y_unit(l, oy, dy, t, args);
+        stages_b_c(args, phis, g);
         if TRANS {
-            // D: τ per channel from one pair of scale factors.
-            let taus_k = tau0.iter_mut().zip(tau1.iter_mut()).zip(tau2.iter_mut());
-            for (((x0, x1), x2), &(gm, ge)) in taus_k.zip(g.iter()) {
-                let (s1, s2) = pow2_pair(ge + sp(l.s_e));
-                let g1 = gm * s1;
-                *x0 = g1 * sp(l.s_m[0]) * s2;
-                *x1 = g1 * sp(l.s_m[1]) * s2;
-                *x2 = g1 * sp(l.s_m[2]) * s2;
-            }
+            stage_d_rgb(l, g, [&mut *tau0, &mut *tau1, &mut *tau2]);
             // E: T, one channel at a time.
             for (dst, tau) in ob.into_iter().zip([&*tau0, &*tau1, &*tau2]) {
                 for (slot, &x) in slots(dst).zip(tau.iter()) {
@@ -734,33 +735,9 @@ fn hand_rgb_y_unit_full(l: &HandLayer, li: &HandLight, r: &RaySet, out: &mut [Ve
         let (tau0, tau1, tau2) = (&mut tau0[..m], &mut tau1[..m], &mut tau2[..m]);
         let [tr0, tr1, tr2] = &mut trs;
         let (tr0, tr1, tr2) = (&mut tr0[..m], &mut tr1[..m], &mut tr2[..m]);
-        // A: loads and the exponent arithmetic.
-        for (a, ((y, u), tt)) in args
-            .iter_mut()
-            .zip(packets(oy).zip(packets(dy)).zip(packets(t)))
-        {
-            let y_s = y * sp(TWO_M64);
-            let (u_m, u_e, t_m, t_e) = split_ray(u, None, tt);
-            let guard = nan_guard(u, y_s, tt);
-            *a = depth_args(l, None, y_s, u_m, u_e, t_m, t_e, guard);
-        }
-        // B: φ.
-        for (phi, a) in phis.iter_mut().zip(args.iter()) {
-            *phi = exprel_neg(a.dc);
-        }
-        // C: e^(−u_min) and G.
-        for (gk, (a, &phi)) in g.iter_mut().zip(args.iter().zip(phis.iter())) {
-            *gk = depth_with(a, phi);
-        }
-        // D: τ per channel from one pair of scale factors.
-        let taus_k = tau0.iter_mut().zip(tau1.iter_mut()).zip(tau2.iter_mut());
-        for (((x0, x1), x2), &(gm, ge)) in taus_k.zip(g.iter()) {
-            let (s1, s2) = pow2_pair(ge + sp(l.s_e));
-            let g1 = gm * s1;
-            *x0 = g1 * sp(l.s_m[0]) * s2;
-            *x1 = g1 * sp(l.s_m[1]) * s2;
-            *x2 = g1 * sp(l.s_m[2]) * s2;
-        }
+        stage_a_y_unit(l, oy, dy, t, args);
+        stages_b_c(args, phis, g);
+        stage_d_rgb(l, g, [&mut *tau0, &mut *tau1, &mut *tau2]);
         // E: T, one channel at a time.
         for (dst, (tau, tr)) in tb.into_iter().zip([
             (&*tau0, &mut *tr0),
