@@ -35,7 +35,7 @@ use analytic_fog::{
 };
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use glam::{DVec3, Vec3};
-use wide::{f32x8, CmpEq, CmpGe};
+use wide::f32x8;
 
 const N: usize = 65536;
 /// Falloff and base height of the layer.
@@ -278,9 +278,9 @@ fn split_ray(u: f32x8, u_shift: Option<f32x8>, t: f32x8) -> (f32x8, f32x8, f32x8
         Some(s) => u_e + s,
         None => u_e,
     };
-    let u_e = u.cmp_eq(sp(0.0)).blend(sp(U_ZERO_EXPONENT), u_e);
+    let u_e = u.simd_eq(sp(0.0)).select(sp(U_ZERO_EXPONENT), u_e);
     let (t_m, t_e) = frexp(t);
-    let t_e = t.cmp_eq(sp(f32::INFINITY)).blend(sp(INF_EXPONENT), t_e);
+    let t_e = t.simd_eq(sp(f32::INFINITY)).select(sp(INF_EXPONENT), t_e);
     (u_m, u_e, t_m, t_e)
 }
 
@@ -375,7 +375,7 @@ fn depth(
 #[inline(always)]
 #[allow(clippy::eq_op)] // x − x is NaN exactly when x is not finite
 fn nan_guard(u: f32x8, y_s: f32x8, t: f32x8) -> f32x8 {
-    (u - u) + (y_s - y_s) + t.cmp_ge(sp(0.0)).blend(sp(0.0), sp(f32::NAN))
+    (u - u) + (y_s - y_s) + t.simd_ge(sp(0.0)).select(sp(0.0), sp(f32::NAN))
 }
 
 /// (a) packet by packet: each packet of 8 rays from its loads to its stores before the

@@ -1,9 +1,9 @@
-//! The evaluation of one packet of rays (1 or 8 lanes) and the batch loops around it.
+//! The evaluation of one packet of rays (1, 8 or 16 lanes) and the batch loops around it.
 //!
 //! [`eval_packet`] is written once over [`Lane`]; the batch loop instantiates it for
-//! `f32x8` (with the tail padded into one more 8-lane packet, so a ray's result does not
-//! depend on its position) and for `f32` (the scalar path). Both give bit-identical
-//! results (see `math::lane`). Const generics select, per scene and batch, the up axis
+//! [`Wide`] (`f32x8`, or `f32x16` in an AVX-512 build; the tail in padded 8-lane packets,
+//! so a ray's result does not depend on its position) and for `f32` (the scalar path).
+//! All give bit-identical results (see `math::lane`). Const generics select, per scene and batch, the up axis
 //! (no dot product for ±X/±Y/±Z), unit directions (no |d|), and the outputs wanted, so
 //! that work a call does not need is compiled out rather than skipped at run time.
 
@@ -748,8 +748,8 @@ fn store<L: Lane>(v: [L; 3], dst: &mut Option<[&mut [f32]; 3]>, i: usize) {
 /// Packets per block of the single-layer batch loop ([`run_single`]).
 const BLOCK: usize = 16;
 
-/// Evaluates a whole batch with lanes of type `L` (full packets), then the tail (for
-/// `f32x8`) as one padded packet.
+/// Evaluates a whole batch with lanes of type `L` (full packets), then the tail (fewer
+/// than `L::LANES` rays) in padded 8-lane packets.
 fn run<
     L: Lane,
     const AXIS: usize,
@@ -818,13 +818,15 @@ fn run<
         ));
     }
     let _ = (o_tau, o_tr, o_li);
-    if full < n {
-        // The tail: pad to one 8-lane packet with a harmless ray (t = 0), evaluate, and
-        // store the live lanes. Same instructions as a full packet, so the same bits.
-        let rem = n - full;
-        let pad = |s: &[f32], fill: f32| {
+    // The tail (fewer than `L::LANES` rays): in 8-lane packets, the last one padded with a
+    // harmless ray (t = 0), their live lanes stored. Same instructions per lane as a full
+    // packet of any width, so the same bits.
+    let mut s = full;
+    while s < n {
+        let rem = (n - s).min(8);
+        let pad = |v: &[f32], fill: f32| {
             let mut b = [fill; 8];
-            b[..rem].copy_from_slice(&s[full..]);
+            b[..rem].copy_from_slice(&v[s..s + rem]);
             b
         };
         let o = [0, 1, 2].map(|c| f32x8::new(pad(rays.o[c], 0.0)));
@@ -839,13 +841,14 @@ fn run<
         let put = |v: [f32x8; 3], dst: &mut Option<crate::ray::RgbSlices<'_>>| {
             if let Some(d) = dst {
                 for ch in 0..3 {
-                    d[ch][full..].copy_from_slice(&v[ch].to_array()[..rem]);
+                    d[ch][s..s + rem].copy_from_slice(&v[ch].to_array()[..rem]);
                 }
             }
         };
         put(r.tau, &mut out.tau);
         put(r.trans, &mut out.transmittance);
         put(r.insc, &mut out.inscattering);
+        s += rem;
     }
 }
 
@@ -1089,12 +1092,21 @@ fn run_single<
     }
 }
 
+/// The lane type of the vector paths: `f32x8` (AVX2: one ymm register), or `f32x16` where
+/// the build enables AVX-512F (one zmm register; e.g. `-C target-cpu=x86-64-v4`). Both give
+/// the same bits (each `Lane` method is the same IEEE operation at any width).
+#[cfg(not(target_feature = "avx512f"))]
+pub(crate) type Wide = f32x8;
+/// See the other definition.
+#[cfg(target_feature = "avx512f")]
+pub(crate) type Wide = wide::f32x16;
+
 /// Which lane type a batch runs with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Width {
-    /// 8 lanes, Accurate tier.
+    /// [`Wide`] lanes (8, or 16 with AVX-512), Accurate tier.
     X8,
-    /// 8 lanes, Fast tier.
+    /// [`Wide`] lanes, Fast tier.
     X8Fast,
     /// 1 lane, Accurate tier (bit-identical to `X8`).
     Scalar,
@@ -1130,8 +1142,8 @@ macro_rules! dispatch_geometry {
 /// Evaluates a batch on the calling thread.
 pub(crate) fn evaluate(scene: &Scene, rays: &Rays<'_>, out: &mut Outputs<'_>, width: Width) {
     match width {
-        Width::X8 => dispatch_geometry!(f32x8, false, scene, rays, out),
-        Width::X8Fast => dispatch_geometry!(f32x8, true, scene, rays, out),
+        Width::X8 => dispatch_geometry!(Wide, false, scene, rays, out),
+        Width::X8Fast => dispatch_geometry!(Wide, true, scene, rays, out),
         Width::Scalar => dispatch_geometry!(f32, false, scene, rays, out),
     }
 }
@@ -1140,7 +1152,7 @@ pub(crate) fn evaluate(scene: &Scene, rays: &Rays<'_>, out: &mut Outputs<'_>, wi
 /// core's L2 cache.
 pub(crate) const PAR_CHUNK: usize = 4096;
 
-/// Evaluates a batch with rayon, splitting it in halves (multiples of 8 rays) down to
+/// Evaluates a batch with rayon, splitting it in halves (multiples of 16 rays) down to
 /// chunks of [`PAR_CHUNK`] rays.
 pub(crate) fn evaluate_par(scene: &Scene, rays: &Rays<'_>, out: Outputs<'_>, width: Width) {
     let n = rays.len();
@@ -1149,7 +1161,7 @@ pub(crate) fn evaluate_par(scene: &Scene, rays: &Rays<'_>, out: Outputs<'_>, wid
         evaluate(scene, rays, &mut out, width);
         return;
     }
-    let mid = (n / 2).next_multiple_of(8).min(n);
+    let mid = (n / 2).next_multiple_of(16).min(n);
     let (a, b) = out.split_at(mid);
     let (ra, rb) = (rays.slice(0, mid), rays.slice(mid, n));
     rayon::join(

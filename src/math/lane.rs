@@ -1,15 +1,18 @@
 //! The lane abstraction: every kernel in this crate is written once over [`Lane`] and
-//! instantiated for `f32` (the scalar path) and `wide::f32x8` (8 rays per instruction).
+//! instantiated for `f32` (the scalar path), `wide::f32x8` (8 rays per instruction) and
+//! `wide::f32x16` (16 rays per instruction where the build enables AVX-512F; two `f32x8`
+//! halves otherwise).
 //!
-//! The two instantiations are bit-identical: each trait method maps to one IEEE-754
-//! operation with the same rounding in both (`mul_add` is fused in both when the target
-//! has FMA and unfused in both when it does not; `min`/`max` follow the x86 `minps`/`maxps`
-//! rule `a < b ? a : b` in both, so even NaN inputs give the same bits).
+//! The instantiations are bit-identical: each trait method maps to one IEEE-754
+//! operation with the same rounding in all three (`round` is `round_ties_even` in the
+//! vector types: wide 1's `round` rounds ties away from zero; `tests/lanes16.rs`) (`mul_add` is fused in both when the target
+//! has FMA and unfused in all when it does not; `min`/`max` follow the x86 `minps`/`maxps`
+//! rule `a < b ? a : b` in all, so even NaN inputs give the same bits).
 
 use core::ops::{Add, BitAnd, BitOr, Div, Mul, Not, Sub};
-use wide::{f32x8, i32x8, CmpEq, CmpGe, CmpGt, CmpLe, CmpLt};
+use wide::{f32x16, f32x8, i32x16, i32x8};
 
-/// A vector of `f32` lanes (1 or 8) with the operations the kernels need.
+/// A vector of `f32` lanes (1, 8 or 16) with the operations the kernels need.
 pub trait Lane:
     Copy
     + Add<Output = Self>
@@ -224,118 +227,131 @@ impl Lane for f32 {
     }
 }
 
-#[inline(always)]
-fn as_i(x: f32x8) -> i32x8 {
-    bytemuck::cast(x)
-}
-#[inline(always)]
-fn as_f(x: i32x8) -> f32x8 {
-    bytemuck::cast(x)
+macro_rules! impl_lane_wide {
+    ($mod:ident, $F:ty, $I:ty, $N:expr) => {
+        mod $mod {
+            use super::*;
+            #[inline(always)]
+            fn as_i(x: $F) -> $I {
+                bytemuck::cast(x)
+            }
+            #[inline(always)]
+            fn as_f(x: $I) -> $F {
+                bytemuck::cast(x)
+            }
+
+            impl Lane for $F {
+                type Mask = $F;
+                const LANES: usize = $N;
+
+                #[inline(always)]
+                fn splat(v: f32) -> Self {
+                    <$F>::splat(v)
+                }
+                #[inline(always)]
+                fn load(s: &[f32]) -> Self {
+                    let a: [f32; $N] = s[..$N].try_into().unwrap();
+                    <$F>::new(a)
+                }
+                #[inline(always)]
+                fn store(self, s: &mut [f32]) {
+                    s[..$N].copy_from_slice(&self.to_array());
+                }
+                #[inline(always)]
+                fn mul_add(self, a: Self, b: Self) -> Self {
+                    <$F>::mul_add(self, a, b)
+                }
+                #[inline(always)]
+                fn mul_sub(self, a: Self, b: Self) -> Self {
+                    <$F>::mul_sub(self, a, b)
+                }
+                #[inline(always)]
+                fn neg_mul_add(self, a: Self, b: Self) -> Self {
+                    <$F>::mul_neg_add(self, a, b)
+                }
+                #[inline(always)]
+                fn min(self, b: Self) -> Self {
+                    // vminps(a, b) = a < b ? a : b
+                    <$F>::fast_min(self, b)
+                }
+                #[inline(always)]
+                fn max(self, b: Self) -> Self {
+                    <$F>::fast_max(self, b)
+                }
+                #[inline(always)]
+                fn abs(self) -> Self {
+                    <$F>::abs(self)
+                }
+                #[inline(always)]
+                fn neg(self) -> Self {
+                    self ^ <$F>::splat(-0.0)
+                }
+                #[inline(always)]
+                fn sqrt(self) -> Self {
+                    <$F>::sqrt(self)
+                }
+                #[inline(always)]
+                fn round(self) -> Self {
+                    <$F>::round_ties_even(self)
+                }
+                #[inline(always)]
+                fn copysign(self, sign: Self) -> Self {
+                    let s = <$F>::splat(-0.0);
+                    (self & !s) | (sign & s)
+                }
+                #[inline(always)]
+                fn lt(self, b: Self) -> Self {
+                    self.simd_lt(b)
+                }
+                #[inline(always)]
+                fn le(self, b: Self) -> Self {
+                    self.simd_le(b)
+                }
+                #[inline(always)]
+                fn gt(self, b: Self) -> Self {
+                    self.simd_gt(b)
+                }
+                #[inline(always)]
+                fn ge(self, b: Self) -> Self {
+                    self.simd_ge(b)
+                }
+                #[inline(always)]
+                fn eq(self, b: Self) -> Self {
+                    self.simd_eq(b)
+                }
+                #[inline(always)]
+                fn ne(self, b: Self) -> Self {
+                    // Spelled out: wide's `simd_ne` is unordered (true for NaN).
+                    self.simd_lt(b) | self.simd_gt(b)
+                }
+                #[inline(always)]
+                fn select(m: Self, a: Self, b: Self) -> Self {
+                    m.select(a, b)
+                }
+                #[inline(always)]
+                fn any(m: Self) -> bool {
+                    m.any()
+                }
+                #[inline(always)]
+                fn pow2i(k: Self) -> Self {
+                    as_f(as_i(k + <$F>::splat(ROUND_MAGIC + 127.0)) << 23)
+                }
+                #[inline(always)]
+                fn exponent_field(self) -> Self {
+                    let field: $I = (as_i(self) >> 23) & <$I>::splat(0xff);
+                    field.round_float()
+                }
+                #[inline(always)]
+                fn with_unit_exponent(self) -> Self {
+                    as_f(
+                        (as_i(self) & <$I>::splat(0x807f_ffff_u32 as i32))
+                            | <$I>::splat(0x3f80_0000),
+                    )
+                }
+            }
+        }
+    };
 }
 
-impl Lane for f32x8 {
-    type Mask = f32x8;
-    const LANES: usize = 8;
-
-    #[inline(always)]
-    fn splat(v: f32) -> Self {
-        f32x8::splat(v)
-    }
-    #[inline(always)]
-    fn load(s: &[f32]) -> Self {
-        let a: [f32; 8] = s[..8].try_into().unwrap();
-        f32x8::new(a)
-    }
-    #[inline(always)]
-    fn store(self, s: &mut [f32]) {
-        s[..8].copy_from_slice(&self.to_array());
-    }
-    #[inline(always)]
-    fn mul_add(self, a: Self, b: Self) -> Self {
-        f32x8::mul_add(self, a, b)
-    }
-    #[inline(always)]
-    fn mul_sub(self, a: Self, b: Self) -> Self {
-        f32x8::mul_sub(self, a, b)
-    }
-    #[inline(always)]
-    fn neg_mul_add(self, a: Self, b: Self) -> Self {
-        f32x8::mul_neg_add(self, a, b)
-    }
-    #[inline(always)]
-    fn min(self, b: Self) -> Self {
-        // vminps(a, b) = a < b ? a : b
-        f32x8::fast_min(self, b)
-    }
-    #[inline(always)]
-    fn max(self, b: Self) -> Self {
-        f32x8::fast_max(self, b)
-    }
-    #[inline(always)]
-    fn abs(self) -> Self {
-        f32x8::abs(self)
-    }
-    #[inline(always)]
-    fn neg(self) -> Self {
-        self ^ f32x8::splat(-0.0)
-    }
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        f32x8::sqrt(self)
-    }
-    #[inline(always)]
-    fn round(self) -> Self {
-        f32x8::round(self)
-    }
-    #[inline(always)]
-    fn copysign(self, sign: Self) -> Self {
-        let s = f32x8::splat(-0.0);
-        (self & !s) | (sign & s)
-    }
-    #[inline(always)]
-    fn lt(self, b: Self) -> Self {
-        self.cmp_lt(b)
-    }
-    #[inline(always)]
-    fn le(self, b: Self) -> Self {
-        self.cmp_le(b)
-    }
-    #[inline(always)]
-    fn gt(self, b: Self) -> Self {
-        self.cmp_gt(b)
-    }
-    #[inline(always)]
-    fn ge(self, b: Self) -> Self {
-        self.cmp_ge(b)
-    }
-    #[inline(always)]
-    fn eq(self, b: Self) -> Self {
-        self.cmp_eq(b)
-    }
-    #[inline(always)]
-    fn ne(self, b: Self) -> Self {
-        // Spelled out: `cmp_ne` is ordered with AVX but unordered (true for NaN) on SSE.
-        self.cmp_lt(b) | self.cmp_gt(b)
-    }
-    #[inline(always)]
-    fn select(m: Self, a: Self, b: Self) -> Self {
-        m.blend(a, b)
-    }
-    #[inline(always)]
-    fn any(m: Self) -> bool {
-        m.any()
-    }
-    #[inline(always)]
-    fn pow2i(k: Self) -> Self {
-        as_f(as_i(k + f32x8::splat(ROUND_MAGIC + 127.0)) << 23)
-    }
-    #[inline(always)]
-    fn exponent_field(self) -> Self {
-        let field: i32x8 = (as_i(self) >> 23) & i32x8::splat(0xff);
-        field.round_float()
-    }
-    #[inline(always)]
-    fn with_unit_exponent(self) -> Self {
-        as_f((as_i(self) & i32x8::splat(0x807f_ffff_u32 as i32)) | i32x8::splat(0x3f80_0000))
-    }
-}
+impl_lane_wide!(lane_x8, f32x8, i32x8, 8);
+impl_lane_wide!(lane_x16, f32x16, i32x16, 16);

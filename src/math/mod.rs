@@ -1,4 +1,5 @@
-//! SIMD special functions, each written once over [`Lane`] (`f32` and `wide::f32x8`).
+//! SIMD special functions, each written once over [`Lane`] (`f32`, `wide::f32x8` and
+//! `wide::f32x16`).
 //!
 //! One function per file, each with its domain and its measured error in the file's
 //! header. The exhaustive sweeps that measure them are in `tests/exhaustive.rs`

@@ -1,0 +1,216 @@
+//! The 16-lane instantiation (`wide::f32x16`, which the batch kernels use where the build
+//! enables AVX-512F, e.g. `-C target-cpu=x86-64-v4`) gives the same bits as the scalar one
+//! for every special function, over a sample of every 257th f32 bit pattern (16.7 million
+//! inputs, NaN, ±inf, zeros and subnormals included) and the boundaries listed below
+//! (NaN counts as equal to NaN whatever the payload).
+//!
+//! In an x86-64-v3 build `f32x16` is two `f32x8` halves, so this checks the shared `Lane`
+//! code; `.ci/run` runs the test suite again with x86-64-v4 where the CPU has AVX-512, which
+//! checks the AVX-512 instructions themselves (and, through `tests/height_fog.rs` and
+//! `tests/plan.rs`, the kernels: `Scene::evaluate` against `evaluate_scalar` bit for bit).
+use analytic_fog::math::{self, Lane};
+use rayon::prelude::*;
+use wide::f32x16;
+
+const STRIDE: u32 = 257;
+
+/// The same bits, or both NaN (NaN payloads are not part of the contract).
+fn same(a: f32, b: f32) -> bool {
+    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+}
+
+/// Inputs: every STRIDE-th bit pattern from `start`, plus a few exact boundaries.
+fn inputs(start: u32) -> impl Iterator<Item = f32> {
+    let specials = [
+        0.0f32,
+        -0.0,
+        f32::MIN_POSITIVE,
+        -f32::MIN_POSITIVE,
+        f32::from_bits(1),
+        f32::MAX,
+        f32::MIN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+        1.0,
+        -1.0,
+        0.5,
+        88.72284,
+        -87.33655,
+        -103.97208,
+        104.0,
+        -104.0,
+        1e-30,
+        8.673_617e-19,
+    ];
+    (0..u32::MAX / STRIDE)
+        .map(move |k| f32::from_bits(start.wrapping_add(k * STRIDE)))
+        .chain(specials)
+}
+
+/// Runs `f16` over packets of 16 inputs and `f1` over each input alone; the number of
+/// lanes whose bits differ (with the first few printed).
+fn mismatches<F16, F1>(name: &str, f16: F16, f1: F1) -> usize
+where
+    F16: Fn(f32x16) -> [f32x16; 2] + Sync,
+    F1: Fn(f32) -> [f32; 2] + Sync,
+{
+    let xs: Vec<f32> = inputs(0x9e37).collect();
+    let bad: usize = xs
+        .par_chunks(16 * 1024)
+        .map(|block| {
+            let mut bad = 0;
+            for chunk in block.chunks(16) {
+                let mut a = [1.0f32; 16];
+                a[..chunk.len()].copy_from_slice(chunk);
+                let r = f16(f32x16::new(a)).map(|v| v.to_array());
+                for (l, &x) in chunk.iter().enumerate() {
+                    let s = f1(x);
+                    for k in 0..2 {
+                        if !same(r[k][l], s[k]) {
+                            if bad < 3 {
+                                eprintln!(
+                                    "{name}({x:e} = {:#010x}) [{k}]: x16 {:#010x}, scalar {:#010x}",
+                                    x.to_bits(),
+                                    r[k][l].to_bits(),
+                                    s[k].to_bits()
+                                );
+                            }
+                            bad += 1;
+                        }
+                    }
+                }
+            }
+            bad
+        })
+        .sum();
+    bad
+}
+
+macro_rules! one {
+    ($f:path) => {
+        mismatches(
+            stringify!($f),
+            |x| [$f(x), f32x16::splat(0.0)],
+            |x| [$f(x), 0.0],
+        )
+    };
+}
+
+macro_rules! two {
+    ($f:path) => {
+        mismatches(
+            stringify!($f),
+            |x| {
+                let (a, b) = $f(x);
+                [a, b]
+            },
+            |x| {
+                let (a, b) = $f(x);
+                [a, b]
+            },
+        )
+    };
+}
+
+#[test]
+fn x16_equals_scalar_for_every_special_function() {
+    let counts = [
+        ("exp", one!(math::exp)),
+        ("exp_neg", one!(math::exp_neg)),
+        ("expm1", one!(math::expm1)),
+        ("exprel_neg", one!(math::exprel_neg)),
+        ("exp_neg_fast", one!(math::exp_neg_fast)),
+        ("exprel_neg_fast", one!(math::exprel_neg_fast)),
+        ("erf", one!(math::erf)),
+        ("erfc", one!(math::erfc)),
+        ("asinh", one!(math::asinh)),
+        ("log", one!(math::log)),
+        ("log1p", one!(math::log1p)),
+        ("exp_split", two!(math::exp_split)),
+        ("exp_split_fast", two!(math::exp_split_fast)),
+        ("frexp", two!(math::frexp)),
+        // Ties to even (wide 1's `f32x16::round` rounds ties away from zero).
+        ("round", one!(Lane::round)),
+        ("sqrt", one!(Lane::sqrt)),
+    ];
+    let bad: Vec<_> = counts.iter().filter(|(_, n)| *n > 0).collect();
+    assert!(bad.is_empty(), "x16 differs from scalar: {bad:?}");
+}
+
+/// The two-argument helpers, on pairs drawn from their preconditions' domains.
+#[test]
+fn x16_equals_scalar_for_ldexp_and_lane_operations() {
+    let mut s: u64 = 0x2545_f491_4f6c_dd1d;
+    let mut next = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        s
+    };
+    let mut bad = 0;
+    for _ in 0..200_000 {
+        let m: [f32; 16] = core::array::from_fn(|_| {
+            let b = next();
+            // Mantissas in [2^-40, 2^8] of either sign, and zero.
+            if b % 17 == 0 {
+                0.0
+            } else {
+                let mag = f32::from_bits(0x3f80_0000 | (b as u32 & 0x007f_ffff));
+                let e = (b >> 32) as i32 % 48 - 40;
+                let v = mag * 2f32.powi(e);
+                if b & (1 << 40) != 0 {
+                    -v
+                } else {
+                    v
+                }
+            }
+        });
+        let e: [f32; 16] = core::array::from_fn(|_| (next() % 700) as f32 - 350.0);
+        let x: [f32; 16] = core::array::from_fn(|_| f32::from_bits(next() as u32));
+        let y: [f32; 16] = core::array::from_fn(|_| f32::from_bits(next() as u32));
+        let (vm, ve) = (f32x16::new(m), f32x16::new(e));
+        let (vx, vy) = (f32x16::new(x), f32x16::new(y));
+        let l = math::ldexp(vm, ve).to_array();
+        let (p1, p2) = math::pow2_pair(ve);
+        let (p1, p2) = (p1.to_array(), p2.to_array());
+        let ops = [
+            Lane::min(vx, vy).to_array(),
+            Lane::max(vx, vy).to_array(),
+            Lane::mul_add(vx, vy, vm).to_array(),
+            Lane::sqrt(vx).to_array(),
+            Lane::round(vx).to_array(),
+            Lane::copysign(vx, vy).to_array(),
+            Lane::clamp(vx, vm, vm + f32x16::splat(1.0)).to_array(),
+            Lane::select(Lane::ne(vx, vy), vx, vy).to_array(),
+            Lane::exponent_field(vx).to_array(),
+            Lane::with_unit_exponent(vx).to_array(),
+        ];
+        for i in 0..16 {
+            let want = [
+                Lane::min(x[i], y[i]),
+                Lane::max(x[i], y[i]),
+                Lane::mul_add(x[i], y[i], m[i]),
+                Lane::sqrt(x[i]),
+                Lane::round(x[i]),
+                Lane::copysign(x[i], y[i]),
+                Lane::clamp(x[i], m[i], m[i] + 1.0),
+                <f32 as Lane>::select(Lane::ne(x[i], y[i]), x[i], y[i]),
+                Lane::exponent_field(x[i]),
+                Lane::with_unit_exponent(x[i]),
+            ];
+            let (q1, q2) = math::pow2_pair(e[i]);
+            bad += usize::from(!same(l[i], math::ldexp(m[i], e[i])));
+            bad += usize::from(!same(p1[i], q1) || !same(p2[i], q2));
+            for (k, w) in want.iter().enumerate() {
+                if !same(ops[k][i], *w) {
+                    if bad < 3 {
+                        eprintln!("op {k}: x = {:e}, y = {:e}, m = {:e}", x[i], y[i], m[i]);
+                    }
+                    bad += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(bad, 0, "lanes where x16 differs from scalar");
+}
