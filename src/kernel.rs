@@ -3,9 +3,10 @@
 //! [`eval_packet`] is written once over [`Lane`]; the batch loop instantiates it for
 //! [`Wide`] (`f32x8`, or `f32x16` in an AVX-512 build; the tail in padded 8-lane packets,
 //! so a ray's result does not depend on its position) and for `f32` (the scalar path).
-//! All give bit-identical results (see `math::lane`). Const generics select, per scene and batch, the up axis
-//! (no dot product for ±X/±Y/±Z), unit directions (no |d|), and the outputs wanted, so
-//! that work a call does not need is compiled out rather than skipped at run time.
+//! All give bit-identical results (see `math::lane`). Const generics select, per scene and
+//! batch, the up axis (no dot product for ±X/±Y/±Z), unit directions (no |d|), and the
+//! outputs wanted, so that work a call does not need is compiled out rather than skipped
+//! at run time.
 
 use crate::light::PhaseEval;
 use crate::math::{exp_neg, exp_neg_fast, ldexp, pow2_pair, Lane};

@@ -4,10 +4,11 @@
 //! halves otherwise).
 //!
 //! The instantiations are bit-identical: each trait method maps to one IEEE-754
-//! operation with the same rounding in all three (`round` is `round_ties_even` in the
-//! vector types: wide 1's `round` rounds ties away from zero; `tests/lanes16.rs`) (`mul_add` is fused in both when the target
+//! operation with the same rounding in all three. `mul_add` is fused in all when the target
 //! has FMA and unfused in all when it does not; `min`/`max` follow the x86 `minps`/`maxps`
-//! rule `a < b ? a : b` in all, so even NaN inputs give the same bits).
+//! rule `a < b ? a : b` in all, so even NaN inputs give the same bits; `round` is
+//! `round_ties_even` in the vector types (wide 1's `round` rounds ties away from zero).
+//! `tests/lanes16.rs` checks the 16-lane instantiation against the scalar one.
 
 use core::ops::{Add, BitAnd, BitOr, Div, Mul, Not, Sub};
 use wide::{f32x16, f32x8, i32x16, i32x8};
