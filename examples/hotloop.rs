@@ -75,7 +75,8 @@ fn main() {
     let reps: usize = std::env::var("REPS")
         .ok()
         .and_then(|r| r.parse().ok())
-        .unwrap_or(20);
+        .unwrap_or(20)
+        .max(1);
     let mut best = f64::INFINITY;
     for rep in 0..=reps {
         let [a, b, c, d, e, f] = &mut o[..] else {
