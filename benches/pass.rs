@@ -237,6 +237,22 @@ fn bench(c: &mut Criterion) {
                 .unwrap()
         })
     });
+    // The own kernel 8 lanes wide (the same as `fog_single` unless the build has AVX-512).
+    let lanes8 = scene.clone().with_pass_lanes_8();
+    let mut buf = colour.clone();
+    g.bench_function("fog_single_lanes8", |b| {
+        b.iter(|| {
+            lanes8
+                .fog_pass_single(
+                    &cam,
+                    W,
+                    H,
+                    Depth::linear_view(black_box(&depth)),
+                    ColourBuffer::Rgb(&mut buf),
+                )
+                .unwrap()
+        })
+    });
     let batch_kernel = scene.clone().with_batch_kernel_pass();
     let mut buf = colour.clone();
     g.bench_function("fog_single_batch_kernel", |b| {

@@ -358,6 +358,9 @@ pub struct Scene {
     /// The framebuffer pass uses the batch kernel even where its own one-layer kernel
     /// applies (`Scene::with_batch_kernel_pass`).
     pub(crate) exact_pass: bool,
+    /// The pass's own kernel runs 8 lanes wide even in a 16-lane build
+    /// (`Scene::with_pass_lanes_8`).
+    pub(crate) pass_lanes_8: bool,
 }
 
 fn check_finite(field: impl FnOnce() -> String, v: f32) -> Result<(), SceneError> {
@@ -643,6 +646,7 @@ impl Scene {
             lobe,
             ordered: desc.composition == Composition::Ordered && !volumes_empty,
             exact_pass: false,
+            pass_lanes_8: false,
             desc,
         })
     }
@@ -677,6 +681,15 @@ impl Scene {
     /// API within the accuracy bound rather than bit for bit.
     pub fn with_batch_kernel_pass(mut self) -> Scene {
         self.exact_pass = true;
+        self
+    }
+
+    /// This scene with the framebuffer pass's own one-layer kernel running 8 lanes wide
+    /// where the build would run it 16 wide (AVX-512). For tests and benchmarks: both
+    /// widths give the same bits.
+    #[doc(hidden)]
+    pub fn with_pass_lanes_8(mut self) -> Scene {
+        self.pass_lanes_8 = true;
         self
     }
 

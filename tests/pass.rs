@@ -233,7 +233,7 @@ fn batch_reference(
     (t, l)
 }
 
-const SIZES: [(usize, usize); 9] = [
+const SIZES: [(usize, usize); 11] = [
     (1, 1),
     (7, 3),
     (17, 5),
@@ -243,6 +243,8 @@ const SIZES: [(usize, usize); 9] = [
     (1, 13),
     (9, 8),
     (64, 4),
+    (29, 3),
+    (40, 2),
 ];
 
 #[test]
@@ -457,11 +459,24 @@ fn own_kernel_within_the_accuracy_bound() {
             scene
                 .fog_pass(&cam, w, h, d, ColourBuffer::Rgba(&mut rgba))
                 .unwrap();
+            // The own kernel 8 lanes wide: the same bits as the build's width (16 lanes in
+            // an AVX-512 build, where this compares two instantiations).
+            let mut rgb8 = vec![surface; 3 * n];
+            scene
+                .clone()
+                .with_pass_lanes_8()
+                .fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut rgb8))
+                .unwrap();
             for i in 0..n {
                 for c in 0..3 {
                     let e = planes[c][i].to_bits();
                     assert_eq!(rgb[3 * i + c].to_bits(), e, "case {case}: RGB vs planar");
                     assert_eq!(rgba[4 * i + c].to_bits(), e, "case {case}: RGBA vs planar");
+                    assert_eq!(
+                        rgb8[3 * i + c].to_bits(),
+                        e,
+                        "case {case}: 8 lanes vs build"
+                    );
                 }
             }
         }

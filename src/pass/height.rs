@@ -38,13 +38,13 @@
 
 use super::camera::{DepthPlan, FramePlan, RowPlan};
 use super::RowColour;
-use crate::kernel::Single;
+use crate::kernel::{Single, Wide};
 use crate::light::Phase;
 use crate::math::{exp_neg, exp_neg_fast, expm1, Lane};
 use crate::medium::volume::clamp_colour;
 use crate::scene::{Scene, UpAxis};
 use crate::Tier;
-use wide::f32x8;
+use wide::{f32x16, f32x8};
 
 /// Rays are clamped to this length (see the module documentation).
 const T_BIG: f32 = 1e20;
@@ -103,18 +103,18 @@ impl PhaseTerm {
     /// p for the view directions `d · inv_n` (unit); `beta`: whether any term of the
     /// frame has β ≠ 0 (else c is not formed).
     #[inline(always)]
-    fn eval(&self, d: [f32x8; 3], inv_n: f32x8, beta: bool) -> f32x8 {
+    fn eval<W: PassLane>(&self, d: [W; 3], inv_n: W, beta: bool) -> W {
         let w = [
-            d[0].mul_add(inv_n, f32x8::splat(self.w[0])),
-            d[1].mul_add(inv_n, f32x8::splat(self.w[1])),
-            d[2].mul_add(inv_n, f32x8::splat(self.w[2])),
+            d[0].mul_add(inv_n, W::splat(self.w[0])),
+            d[1].mul_add(inv_n, W::splat(self.w[1])),
+            d[2].mul_add(inv_n, W::splat(self.w[2])),
         ];
         let m = w[0].mul_add(w[0], w[1].mul_add(w[1], w[2] * w[2]));
-        let r = rsqrt(m.mul_add(f32x8::splat(self.gg), f32x8::splat(self.base)));
-        let mut a = f32x8::splat(self.alpha);
+        let r = rsqrt(m.mul_add(W::splat(self.gg), W::splat(self.base)));
+        let mut a = W::splat(self.alpha);
         if beta {
             let c = crate::light::dot3(d, self.s) * inv_n;
-            a = (c * c).mul_add(f32x8::splat(self.beta), a);
+            a = (c * c).mul_add(W::splat(self.beta), a);
         }
         a * r * (r * r)
     }
@@ -124,10 +124,100 @@ impl PhaseTerm {
 /// Newton step, which leaves about 1.5·(1.5·2⁻¹²)² + rounding < 4·2⁻²⁴ relative. The
 /// estimate's bits differ between CPU vendors, so this kernel's last bits may too.
 #[inline(always)]
-fn rsqrt(x: f32x8) -> f32x8 {
-    let r = x.recip_sqrt();
-    let h = x * f32x8::splat(0.5);
-    r * (h * r).neg_mul_add(r, f32x8::splat(1.5))
+fn rsqrt<W: PassLane>(x: W) -> W {
+    let r = x.rsqrt_estimate();
+    let h = x * W::splat(0.5);
+    r * (h * r).neg_mul_add(r, W::splat(1.5))
+}
+
+/// What the pass's own kernel needs of a lane type beyond [`Lane`]: the estimate of
+/// 1/√x and the interleaved-RGB layouts. Implemented for `f32x8` and `f32x16`; the kernel
+/// runs [`Wide`] (16 lanes in an AVX-512 build), and gives the same bits at both widths:
+/// every operation is the same IEEE operation per element, and the 16-lane estimate is
+/// the 8-lane instruction (`vrsqrtps`) on each half, not AVX-512's more precise
+/// `vrsqrt14ps` (wide's `f32x16::recip_sqrt` is a square root and a division there).
+pub(crate) trait PassLane: Lane<Mask = Self> {
+    /// The lanes' column offsets, 0, 1, …, LANES − 1.
+    fn lane_x() -> Self;
+    /// `vrsqrtps` on each 8 lanes.
+    fn rsqrt_estimate(self) -> Self;
+    /// Lane `h` of the 8-lane pieces (`h < LANES / 8`).
+    fn part(self, h: usize) -> f32x8;
+    /// Each lane repeated three times, `v0 v0 v0 v1 v1 v1 v2 …` over three vectors: a
+    /// per-pixel value laid out as an interleaved RGB buffer (one permutation each).
+    fn expand3(self) -> [Self; 3];
+    /// Per-channel constants laid out as an interleaved RGB buffer: `c0 c1 c2 c0 c1 …`
+    /// over three vectors.
+    fn interleaved3(c: [f32; 3]) -> [Self; 3];
+}
+
+impl PassLane for f32x8 {
+    #[inline(always)]
+    fn lane_x() -> Self {
+        f32x8::new([0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0])
+    }
+    #[inline(always)]
+    fn rsqrt_estimate(self) -> Self {
+        self.recip_sqrt()
+    }
+    #[inline(always)]
+    fn part(self, h: usize) -> f32x8 {
+        debug_assert_eq!(h, 0);
+        self
+    }
+    #[inline(always)]
+    fn expand3(self) -> [Self; 3] {
+        // Written out: LLVM makes each a single permutation.
+        let a = self.to_array();
+        [
+            f32x8::new([a[0], a[0], a[0], a[1], a[1], a[1], a[2], a[2]]),
+            f32x8::new([a[2], a[3], a[3], a[3], a[4], a[4], a[4], a[5]]),
+            f32x8::new([a[5], a[5], a[6], a[6], a[6], a[7], a[7], a[7]]),
+        ]
+    }
+    fn interleaved3(c: [f32; 3]) -> [Self; 3] {
+        [0, 1, 2].map(|j| f32x8::new(core::array::from_fn(|k| c[(8 * j + k) % 3])))
+    }
+}
+
+impl PassLane for f32x16 {
+    #[inline(always)]
+    fn lane_x() -> Self {
+        f32x16::new([
+            0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 14.0, 15.0,
+        ])
+    }
+    #[inline(always)]
+    fn rsqrt_estimate(self) -> Self {
+        let [a, b]: [f32x8; 2] = bytemuck::cast(self);
+        bytemuck::cast([a.recip_sqrt(), b.recip_sqrt()])
+    }
+    #[inline(always)]
+    fn part(self, h: usize) -> f32x8 {
+        let halves: [f32x8; 2] = bytemuck::cast(self);
+        halves[h]
+    }
+    #[inline(always)]
+    fn expand3(self) -> [Self; 3] {
+        let a = self.to_array();
+        [
+            f32x16::new([
+                a[0], a[0], a[0], a[1], a[1], a[1], a[2], a[2], a[2], a[3], a[3], a[3], a[4], a[4],
+                a[4], a[5],
+            ]),
+            f32x16::new([
+                a[5], a[5], a[6], a[6], a[6], a[7], a[7], a[7], a[8], a[8], a[8], a[9], a[9], a[9],
+                a[10], a[10],
+            ]),
+            f32x16::new([
+                a[10], a[11], a[11], a[11], a[12], a[12], a[12], a[13], a[13], a[13], a[14], a[14],
+                a[14], a[15], a[15], a[15],
+            ]),
+        ]
+    }
+    fn interleaved3(c: [f32; 3]) -> [Self; 3] {
+        [0, 1, 2].map(|j| f32x16::new(core::array::from_fn(|k| c[(16 * j + k) % 3])))
+    }
 }
 
 /// A frame's constants for [`fog_row`].
@@ -151,11 +241,8 @@ pub(crate) struct HeightPass {
     fast: bool,
     /// The depth conversion: [`LINEAR`], [`DISTANCE`] or [`NDC`] with its constants.
     depth: usize,
-    /// `k`, the constant fog colour and the first phase term's weights laid out as an
-    /// interleaved RGB buffer ([`interleaved3`]).
-    k3: [f32x8; 3],
-    colour3: [f32x8; 3],
-    phase_k3: [f32x8; 3],
+    /// Run with 8 lanes whatever the build ([`Scene::with_pass_lanes_8`]).
+    x8: bool,
     /// NDC: z = near / (depth·k + q), sky where depth·sky_s ≥ sky_at.
     ndc: [f32; 5],
 }
@@ -273,18 +360,14 @@ impl HeightPass {
             fast: scene.tier == Tier::Fast,
             depth,
             ndc,
-            k3: interleaved3(k),
-            colour3: interleaved3(layer.colour_const),
-            phase_k3: interleaved3(phases[0].k),
+            x8: scene.pass_lanes_8,
         })
     }
 }
 
-/// Column offsets of the 8 lanes of a packet.
-const LANE_X: [f32; 8] = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0];
-
-/// Fogs one row (`depth`: its depth values, `out`: its colour) with [`HeightPass`]; the
-/// tail (width % 8) padded into one more packet whose dead lanes are dropped.
+/// Fogs one row (`depth`: its depth values, `out`: its colour) with [`HeightPass`], in
+/// packets of [`N`] pixels; the tail (width % N) padded into one more packet whose dead
+/// lanes are dropped.
 #[inline(never)]
 pub(crate) fn fog_row<R: RowColour>(
     hp: &HeightPass,
@@ -298,11 +381,15 @@ pub(crate) fn fog_row<R: RowColour>(
     // predictable branch per packet: as a const generic it measured no faster.)
     macro_rules! go {
         ($ph:literal) => {
-            match (hp.grey, hp.fast) {
-                (false, false) => row::<R, $ph, false, false>(hp, plan, y, depth, out),
-                (false, true) => row::<R, $ph, false, true>(hp, plan, y, depth, out),
-                (true, false) => row::<R, $ph, true, false>(hp, plan, y, depth, out),
-                (true, true) => row::<R, $ph, true, true>(hp, plan, y, depth, out),
+            match (hp.x8, hp.grey, hp.fast) {
+                (false, false, false) => row::<R, Wide, $ph, false, false>(hp, plan, y, depth, out),
+                (false, false, true) => row::<R, Wide, $ph, false, true>(hp, plan, y, depth, out),
+                (false, true, false) => row::<R, Wide, $ph, true, false>(hp, plan, y, depth, out),
+                (false, true, true) => row::<R, Wide, $ph, true, true>(hp, plan, y, depth, out),
+                (true, false, false) => row::<R, f32x8, $ph, false, false>(hp, plan, y, depth, out),
+                (true, false, true) => row::<R, f32x8, $ph, false, true>(hp, plan, y, depth, out),
+                (true, true, false) => row::<R, f32x8, $ph, true, false>(hp, plan, y, depth, out),
+                (true, true, true) => row::<R, f32x8, $ph, true, true>(hp, plan, y, depth, out),
             }
         };
     }
@@ -315,28 +402,6 @@ pub(crate) fn fog_row<R: RowColour>(
 
 /// Packets per block: the row is processed block by block in stages (see [`row`]).
 const BLOCK: usize = 16;
-
-/// `v`'s 8 lanes each repeated three times, `v0 v0 v0 v1 v1 v1 v2 v2 | v2 v3 …`: a
-/// per-pixel value laid out as an interleaved RGB buffer (one permutation per lane).
-#[inline(always)]
-fn expand3(v: f32x8) -> [f32x8; 3] {
-    let a = v.to_array();
-    [
-        f32x8::new([a[0], a[0], a[0], a[1], a[1], a[1], a[2], a[2]]),
-        f32x8::new([a[2], a[3], a[3], a[3], a[4], a[4], a[4], a[5]]),
-        f32x8::new([a[5], a[5], a[6], a[6], a[6], a[7], a[7], a[7]]),
-    ]
-}
-
-/// Per-channel constants laid out as an interleaved RGB buffer: `c0 c1 c2 c0 c1 c2 c0 c1 |
-/// c2 c0 …`.
-fn interleaved3(c: [f32; 3]) -> [f32x8; 3] {
-    let mut v = [[0.0f32; 8]; 3];
-    for k in 0..24 {
-        v[k / 8][k % 8] = c[k % 3];
-    }
-    [f32x8::new(v[0]), f32x8::new(v[1]), f32x8::new(v[2])]
-}
 
 /// Fogs a row in blocks of [`BLOCK`] packets, each block in three passes over small
 /// buffers: the rays' geometry and phase or fog colour, then the optical depth's factor
@@ -351,7 +416,7 @@ fn interleaved3(c: [f32; 3]) -> [f32x8; 3] {
 /// whole lanes with no (de)interleaving; the same operations per element, so the same bits
 /// as the per-channel path, which the other layouts and the row's tail take.
 #[inline(always)]
-fn row<R: RowColour, const PH: usize, const GREY: bool, const FAST: bool>(
+fn row<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const FAST: bool>(
     hp: &HeightPass,
     plan: &FramePlan,
     y: usize,
@@ -360,35 +425,47 @@ fn row<R: RowColour, const PH: usize, const GREY: bool, const FAST: bool>(
 ) {
     let hp = *hp;
     let rp = plan.row(y);
-    let mut bufs = Buffers::default();
+    let mut bufs = Buffers::new(&hp);
     let width = depth.len();
-    let full = width / 8 * 8;
-    for (b, block) in depth[..full].chunks(8 * BLOCK).enumerate() {
-        block_of::<R, PH, GREY, FAST>(&hp, plan, &rp, b * 8 * BLOCK, block, 8, &mut bufs, &mut out);
+    let n_lanes = W::LANES;
+    let full = width / n_lanes * n_lanes;
+    for (b, block) in depth[..full].chunks(n_lanes * BLOCK).enumerate() {
+        let x = b * n_lanes * BLOCK;
+        block_of::<R, W, PH, GREY, FAST>(&hp, plan, &rp, x, block, n_lanes, &mut bufs, &mut out);
     }
     if full < width {
         // The tail, padded into one packet (depth 0 in the dead lanes, dropped).
-        let mut padded = [0.0f32; 8];
+        let mut padded = [0.0f32; 16];
+        let padded = &mut padded[..n_lanes];
         padded[..width - full].copy_from_slice(&depth[full..]);
         let n = width - full;
-        block_of::<R, PH, GREY, FAST>(&hp, plan, &rp, full, &padded, n, &mut bufs, &mut out);
+        block_of::<R, W, PH, GREY, FAST>(&hp, plan, &rp, full, padded, n, &mut bufs, &mut out);
     }
 }
 
-/// The per-block buffers of [`row`].
-struct Buffers {
-    ys: [f32x8; BLOCK],
-    gs: [f32x8; BLOCK],
+/// The per-block buffers of [`row`], and the row's constants in the interleaved RGB
+/// layout.
+struct Buffers<W> {
+    /// `k`, the constant fog colour and the first phase term's weights laid out as an
+    /// interleaved RGB buffer ([`PassLane::interleaved3`]).
+    k3: [W; 3],
+    colour3: [W; 3],
+    phase_k3: [W; 3],
+    ys: [W; BLOCK],
+    gs: [W; BLOCK],
     /// One phase function: its value; else unused.
-    ps: [f32x8; BLOCK],
+    ps: [W; BLOCK],
     /// More phase functions: the fog colour; else unused.
-    colours: [[f32x8; 3]; BLOCK],
+    colours: [[W; 3]; BLOCK],
 }
 
-impl Default for Buffers {
-    fn default() -> Self {
-        let zero = f32x8::splat(0.0);
+impl<W: PassLane> Buffers<W> {
+    fn new(hp: &HeightPass) -> Self {
+        let zero = W::splat(0.0);
         Buffers {
+            k3: W::interleaved3(hp.k),
+            colour3: W::interleaved3(hp.colour),
+            phase_k3: W::interleaved3(hp.phases[0].k),
             ys: [zero; BLOCK],
             gs: [zero; BLOCK],
             ps: [zero; BLOCK],
@@ -397,25 +474,29 @@ impl Default for Buffers {
     }
 }
 
-/// One block of [`row`]: the packets of `depth` (8 values each, at most [`BLOCK`]) from
+/// One block of [`row`]: the packets of `depth` (`W::LANES` values each, at most [`BLOCK`]) from
 /// column `x_start`, the last one with `last_n` live lanes.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn block_of<R: RowColour, const PH: usize, const GREY: bool, const FAST: bool>(
+fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const FAST: bool>(
     hp: &HeightPass,
     plan: &FramePlan,
     rp: &RowPlan,
     x_start: usize,
     depth: &[f32],
     last_n: usize,
-    bufs: &mut Buffers,
+    bufs: &mut Buffers<W>,
     out: &mut R,
 ) {
-    let exp_neg = |x: f32x8| if FAST { exp_neg_fast(x) } else { exp_neg(x) };
-    let zero = f32x8::splat(0.0);
-    let one = f32x8::splat(1.0);
-    let m = depth.len() / 8;
+    let exp_neg = |x: W| if FAST { exp_neg_fast(x) } else { exp_neg(x) };
+    let zero = W::splat(0.0);
+    let one = W::splat(1.0);
+    let n_lanes = W::LANES;
+    let m = depth.len() / n_lanes;
     let Buffers {
+        k3,
+        colour3,
+        phase_k3,
         ys,
         gs,
         ps,
@@ -423,23 +504,23 @@ fn block_of<R: RowColour, const PH: usize, const GREY: bool, const FAST: bool>(
     } = bufs;
     let (ys, gs, ps, colours) = (&mut ys[..m], &mut gs[..m], &mut ps[..m], &mut colours[..m]);
     // 1. Geometry: y = −Δ (away from 0), n·t, and the phase value or fog colour.
-    // Column indices, exact in f32 (width ≤ 2^24), stepped by 8: the values
+    // Column indices, exact in f32 (width ≤ 2^24), stepped by N: the values
     // `FramePlan::ray` forms from x0 + k.
-    let mut xs = f32x8::splat(x_start as f32) + f32x8::new(LANE_X);
+    let mut xs = W::splat(x_start as f32) + W::lane_x();
     for (((dv, y), g), (p, c)) in depth
-        .chunks_exact(8)
+        .chunks_exact(n_lanes)
         .zip(ys.iter_mut())
         .zip(gs.iter_mut())
         .zip(ps.iter_mut().zip(colours.iter_mut()))
     {
         // The direction as `FramePlan::ray` forms it.
-        let u = xs.mul_add(f32x8::splat(plan.su), f32x8::splat(plan.ou));
+        let u = xs.mul_add(W::splat(plan.su), W::splat(plan.ou));
         let d = [
-            u.mul_add(f32x8::splat(plan.d_u[0]), f32x8::splat(rp.d[0])),
-            u.mul_add(f32x8::splat(plan.d_u[1]), f32x8::splat(rp.d[1])),
-            u.mul_add(f32x8::splat(plan.d_u[2]), f32x8::splat(rp.d[2])),
+            u.mul_add(W::splat(plan.d_u[0]), W::splat(rp.d[0])),
+            u.mul_add(W::splat(plan.d_u[1]), W::splat(rp.d[1])),
+            u.mul_add(W::splat(plan.d_u[2]), W::splat(rp.d[2])),
         ];
-        let (yv, nt, inv_n) = geometry(hp, d, f32x8::load(dv));
+        let (yv, nt, inv_n) = geometry(hp, d, W::load(dv));
         *y = yv;
         *g = nt;
         if PH == 1 {
@@ -447,56 +528,55 @@ fn block_of<R: RowColour, const PH: usize, const GREY: bool, const FAST: bool>(
         } else if PH > 1 {
             *c = colour(hp, d, inv_n);
         }
-        xs += f32x8::splat(8.0);
+        xs = xs + W::splat(n_lanes as f32);
     }
     // 2. g = n·t·E(Δ), E = expm1(y)/y, clamped to f32::MAX so that K_c = 0 gives 0,
     // not 0·∞ (n·t > 0 wherever E can be ∞: t = 0 gives y = TINY, E = 1).
     for (g, &y) in gs.iter_mut().zip(ys.iter()) {
-        *g = Lane::min(f32x8::splat(f32::MAX), (expm1(y) / y) * *g);
+        *g = Lane::min(W::splat(f32::MAX), (expm1(y) / y) * *g);
     }
     // 3. T = e^(−K_c·g), L_in = colour · (1 − T), L ← L·T + L_in.
     let mut x0 = x_start;
     for (k, ((&g, &p), c)) in gs.iter().zip(ps.iter()).zip(colours.iter()).enumerate() {
-        let n = if k + 1 == m { last_n } else { 8 };
-        if R::RGB3 && PH < 2 && n == 8 {
+        let n = if k + 1 == m { last_n } else { n_lanes };
+        if R::RGB3 && PH < 2 && n == n_lanes {
             let t = if GREY {
-                expand3(exp_neg(f32x8::splat(hp.k[0]) * g))
+                exp_neg(W::splat(hp.k[0]) * g).expand3()
             } else {
-                let g = expand3(g);
+                let g = g.expand3();
                 [
-                    exp_neg(hp.k3[0] * g[0]),
-                    exp_neg(hp.k3[1] * g[1]),
-                    exp_neg(hp.k3[2] * g[2]),
+                    exp_neg(k3[0] * g[0]),
+                    exp_neg(k3[1] * g[1]),
+                    exp_neg(k3[2] * g[2]),
                 ]
             };
-            let p = expand3(p);
+            let p = p.expand3();
             let mut insc = [zero; 3];
             for j in 0..3 {
                 let c = if PH == 1 {
-                    clamp_colour(p[j].mul_add(hp.phase_k3[j], hp.colour3[j]))
+                    clamp_colour(p[j].mul_add(phase_k3[j], colour3[j]))
                 } else {
-                    clamp_colour(hp.colour3[j])
+                    clamp_colour(colour3[j])
                 };
                 insc[j] = c * (one - t[j]);
             }
             out.fog_rgb3(x0, t, insc);
         } else {
             let trans = if GREY {
-                [exp_neg(f32x8::splat(hp.k[0]) * g); 3]
+                [exp_neg(W::splat(hp.k[0]) * g); 3]
             } else {
                 [
-                    exp_neg(f32x8::splat(hp.k[0]) * g),
-                    exp_neg(f32x8::splat(hp.k[1]) * g),
-                    exp_neg(f32x8::splat(hp.k[2]) * g),
+                    exp_neg(W::splat(hp.k[0]) * g),
+                    exp_neg(W::splat(hp.k[1]) * g),
+                    exp_neg(W::splat(hp.k[2]) * g),
                 ]
             };
             let c = match PH {
-                0 => [0, 1, 2].map(|j| clamp_colour(f32x8::splat(hp.colour[j]))),
+                0 => [0, 1, 2].map(|j| clamp_colour(W::splat(hp.colour[j]))),
                 1 => {
                     let k = hp.phases[0].k;
-                    [0, 1, 2].map(|j| {
-                        clamp_colour(p.mul_add(f32x8::splat(k[j]), f32x8::splat(hp.colour[j])))
-                    })
+                    [0, 1, 2]
+                        .map(|j| clamp_colour(p.mul_add(W::splat(k[j]), W::splat(hp.colour[j]))))
                 }
                 _ => *c,
             };
@@ -505,16 +585,24 @@ fn block_of<R: RowColour, const PH: usize, const GREY: bool, const FAST: bool>(
                 c[1] * (one - trans[1]),
                 c[2] * (one - trans[2]),
             ];
-            out.fog(x0, n, trans, insc);
+            // In 8-pixel pieces (the row's colour layouts are written for 8 lanes).
+            for h in 0..n_lanes / 8 {
+                let live = n.saturating_sub(8 * h).min(8);
+                if live > 0 {
+                    let t = [trans[0].part(h), trans[1].part(h), trans[2].part(h)];
+                    let l = [insc[0].part(h), insc[1].part(h), insc[2].part(h)];
+                    out.fog(x0 + 8 * h, live, t, l);
+                }
+            }
         }
-        x0 += 8;
+        x0 += n_lanes;
     }
 }
 
 /// For the rays from the eye along `d` (any length) to depth values `depth`: y = −Δ =
 /// −b·u·t kept away from 0 (E(Δ) = 1 below 2^-60), n·t, and 1/n.
 #[inline(always)]
-fn geometry(hp: &HeightPass, d: [f32x8; 3], depth: f32x8) -> (f32x8, f32x8, f32x8) {
+fn geometry<W: PassLane>(hp: &HeightPass, d: [W; 3], depth: W) -> (W, W, W) {
     let n2 = d[0].mul_add(d[0], d[1].mul_add(d[1], d[2] * d[2]));
     let inv_n = rsqrt(n2);
     let n = n2 * inv_n;
@@ -529,37 +617,33 @@ fn geometry(hp: &HeightPass, d: [f32x8; 3], depth: f32x8) -> (f32x8, f32x8, f32x
         DISTANCE => depth * inv_n,
         _ => {
             let [near, k, q, sky_s, sky_at] = hp.ndc;
-            let z = f32x8::splat(near) / depth.mul_add(f32x8::splat(k), f32x8::splat(q));
-            let sky = Lane::ge(depth * f32x8::splat(sky_s), f32x8::splat(sky_at));
-            <f32x8 as Lane>::select(sky, f32x8::splat(f32::INFINITY), z)
+            let z = W::splat(near) / depth.mul_add(W::splat(k), W::splat(q));
+            let sky = Lane::ge(depth * W::splat(sky_s), W::splat(sky_at));
+            <W as Lane>::select(sky, W::splat(f32::INFINITY), z)
         }
     };
     // Negative depths to 0 (`Lane::max` is maxps: NaN, the second operand, stays NaN);
     // rays clamped to T_BIG (`Lane::min`: NaN stays NaN). Not wide's `min`/`max`, which
     // return the other operand for NaN.
-    let t = Lane::min(f32x8::splat(T_BIG), Lane::max(f32x8::splat(0.0), t));
-    let y = (f32x8::splat(-hp.b) * u) * t;
-    let y = <f32x8 as Lane>::select(
-        Lane::lt(Lane::abs(y), f32x8::splat(TINY)),
-        f32x8::splat(TINY),
-        y,
-    );
+    let t = Lane::min(W::splat(T_BIG), Lane::max(W::splat(0.0), t));
+    let y = (W::splat(-hp.b) * u) * t;
+    let y = <W as Lane>::select(Lane::lt(Lane::abs(y), W::splat(TINY)), W::splat(TINY), y);
     (y, n * t, inv_n)
 }
 
 /// The fog colour (clamped) for the view directions `d · inv_n`, any number of phase
 /// functions.
 #[inline(always)]
-fn colour(hp: &HeightPass, d: [f32x8; 3], inv_n: f32x8) -> [f32x8; 3] {
+fn colour<W: PassLane>(hp: &HeightPass, d: [W; 3], inv_n: W) -> [W; 3] {
     let mut c = [
-        f32x8::splat(hp.colour[0]),
-        f32x8::splat(hp.colour[1]),
-        f32x8::splat(hp.colour[2]),
+        W::splat(hp.colour[0]),
+        W::splat(hp.colour[1]),
+        W::splat(hp.colour[2]),
     ];
     for term in &hp.phases[..hp.n_phases] {
         let p = term.eval(d, inv_n, hp.beta);
         for ch in 0..3 {
-            c[ch] = p.mul_add(f32x8::splat(term.k[ch]), c[ch]);
+            c[ch] = p.mul_add(W::splat(term.k[ch]), c[ch]);
         }
     }
     [clamp_colour(c[0]), clamp_colour(c[1]), clamp_colour(c[2])]

@@ -438,10 +438,11 @@ trait RowColour {
     const RGB3: bool = false;
     fn load(&self, x0: usize, n: usize) -> [f32x8; 3];
     fn store(&mut self, x0: usize, n: usize, v: [f32x8; 3]);
-    /// For [`RowColour::RGB3`] rows: `L = L · T + L_in` for the 8 pixels from `x0`, with T
-    /// and L_in given in the buffer's interleaved layout (24 values in three lanes).
+    /// For [`RowColour::RGB3`] rows: `L = L · T + L_in` for the `W::LANES` pixels from
+    /// `x0`, with T and L_in given in the buffer's interleaved layout (3·LANES values in
+    /// three vectors).
     #[inline(always)]
-    fn fog_rgb3(&mut self, x0: usize, trans: [f32x8; 3], insc: [f32x8; 3]) {
+    fn fog_rgb3<W: Lane>(&mut self, x0: usize, trans: [W; 3], insc: [W; 3]) {
         let _ = (x0, trans, insc);
         unreachable!("fog_rgb3 on a row that is not interleaved RGB");
     }
@@ -472,11 +473,12 @@ struct Interleaved<'a, const C: usize>(&'a mut [f32]);
 impl<const C: usize> RowColour for Interleaved<'_, C> {
     const RGB3: bool = C == 3;
     #[inline(always)]
-    fn fog_rgb3(&mut self, x0: usize, trans: [f32x8; 3], insc: [f32x8; 3]) {
-        let s = &mut self.0[x0 * 3..(x0 + 8) * 3];
+    fn fog_rgb3<W: Lane>(&mut self, x0: usize, trans: [W; 3], insc: [W; 3]) {
+        let n = W::LANES;
+        let s = &mut self.0[x0 * 3..(x0 + n) * 3];
         for j in 0..3 {
-            let c = f32x8::load(&s[8 * j..8 * j + 8]);
-            Lane::mul_add(c, trans[j], insc[j]).store(&mut s[8 * j..8 * j + 8]);
+            let c = W::load(&s[n * j..n * j + n]);
+            Lane::mul_add(c, trans[j], insc[j]).store(&mut s[n * j..n * j + n]);
         }
     }
     #[inline(always)]
@@ -543,7 +545,7 @@ struct Planar<'a>([&'a mut [f32]; 3]);
 impl<R: RowColour> RowColour for &mut R {
     const RGB3: bool = R::RGB3;
     #[inline(always)]
-    fn fog_rgb3(&mut self, x0: usize, trans: [f32x8; 3], insc: [f32x8; 3]) {
+    fn fog_rgb3<W: Lane>(&mut self, x0: usize, trans: [W; 3], insc: [W; 3]) {
         (**self).fog_rgb3(x0, trans, insc)
     }
     #[inline(always)]
