@@ -77,7 +77,8 @@
 //! `RUSTFLAGS="-C target-cpu=x86-64-v3"` (or `native`), or in `.cargo/config.toml`; without
 //! it the same code runs on SSE2 (correct, bit-identical between scalar and x8, slower).
 //! With AVX-512 enabled (`-C target-cpu=x86-64-v4`, or `native` on such a CPU) the batch
-//! kernels run 16 lanes per instruction (`wide::f32x16`), with the same bits; the binary
+//! kernels and the framebuffer pass's own kernel run 16 lanes per instruction
+//! (`wide::f32x16`), with the same bits; the binary
 //! then needs AVX-512 to run. [`simd_level`] reports what was compiled in.
 
 #![deny(unsafe_code)]
