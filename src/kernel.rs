@@ -1174,12 +1174,12 @@ pub(crate) fn evaluate_par(scene: &Scene, rays: &Rays<'_>, out: Outputs<'_>, wid
 /// The ray source and result sink of [`run_packets`]: `make(i)` produces packet `i`,
 /// `take(i, &out)` consumes its result. (A trait with `#[inline(always)]` methods rather
 /// than closures, so that both are inlined into the packet loop.)
-pub(crate) trait PacketIo {
-    fn make(&mut self, i: usize) -> PacketIn<f32x8>;
-    fn take(&mut self, i: usize, out: &PacketOut<f32x8>);
+pub(crate) trait PacketIo<L> {
+    fn make(&mut self, i: usize) -> PacketIn<L>;
+    fn take(&mut self, i: usize, out: &PacketOut<L>);
 }
 
-/// Evaluates `count` packets of 8 rays that `io.make(i)` produces (transmittance and
+/// Evaluates `count` packets of `L::LANES` rays that `io.make(i)` produces (transmittance and
 /// in-scattering wanted, like a batch with both outputs), handing each result to
 /// `io.take(i, &out)`: the entry point of the framebuffer pass (`crate::pass`), which
 /// generates its rays in registers instead of reading them from slices.
@@ -1193,14 +1193,14 @@ pub(crate) trait PacketIo {
 /// `volumes`: the candidate fog volumes of these packets (see [`eval_general_with`]):
 /// the pass's per-tile list, or `None` for all.
 #[inline(always)]
-pub(crate) fn run_packets<const UNIT: bool, S: PacketIo>(
+pub(crate) fn run_packets<L: Lane, const UNIT: bool, S: PacketIo<L>>(
     scene: &Scene,
     volumes: Option<&[u32]>,
     count: usize,
     io: &mut S,
 ) {
     #[inline(always)]
-    fn go<const AXIS: usize, const UNIT: bool, const FAST: bool, S: PacketIo>(
+    fn go<L: Lane, const AXIS: usize, const UNIT: bool, const FAST: bool, S: PacketIo<L>>(
         scene: &Scene,
         volumes: Option<&[u32]>,
         count: usize,
@@ -1209,7 +1209,7 @@ pub(crate) fn run_packets<const UNIT: bool, S: PacketIo>(
         if let Some(single) = Single::of(scene) {
             // In blocks, stage by stage, like `run_single`: the packets of a block are
             // made, evaluated by `eval_block` and handed back in three loops.
-            let z = f32x8::splat(0.0);
+            let z = L::splat(0.0);
             let mut ins = [PacketIn {
                 o: [z; 3],
                 d: [z; 3],
@@ -1226,7 +1226,7 @@ pub(crate) fn run_packets<const UNIT: bool, S: PacketIo>(
                 for (k, p) in ins[..m].iter_mut().enumerate() {
                     *p = io.make(i + k);
                 }
-                eval_block::<AXIS, UNIT, FAST>(&single, &ins[..m], &mut outs[..m]);
+                eval_block::<L, AXIS, UNIT, FAST>(&single, &ins[..m], &mut outs[..m]);
                 for (k, r) in outs[..m].iter().enumerate() {
                     io.take(i + k, r);
                 }
@@ -1236,7 +1236,7 @@ pub(crate) fn run_packets<const UNIT: bool, S: PacketIo>(
             let mut scratch = Vec::new();
             for i in 0..count {
                 let p = io.make(i);
-                let r = eval_general_with::<f32x8, AXIS, UNIT>(
+                let r = eval_general_with::<L, AXIS, UNIT>(
                     scene,
                     p,
                     true,
@@ -1250,14 +1250,14 @@ pub(crate) fn run_packets<const UNIT: bool, S: PacketIo>(
         }
     }
     match (scene.axis, scene.tier == crate::Tier::Fast) {
-        (UpAxis::Axis(0), false) => go::<0, UNIT, false, S>(scene, volumes, count, io),
-        (UpAxis::Axis(1), false) => go::<1, UNIT, false, S>(scene, volumes, count, io),
-        (UpAxis::Axis(2), false) => go::<2, UNIT, false, S>(scene, volumes, count, io),
-        (_, false) => go::<GENERAL, UNIT, false, S>(scene, volumes, count, io),
-        (UpAxis::Axis(0), true) => go::<0, UNIT, true, S>(scene, volumes, count, io),
-        (UpAxis::Axis(1), true) => go::<1, UNIT, true, S>(scene, volumes, count, io),
-        (UpAxis::Axis(2), true) => go::<2, UNIT, true, S>(scene, volumes, count, io),
-        (_, true) => go::<GENERAL, UNIT, true, S>(scene, volumes, count, io),
+        (UpAxis::Axis(0), false) => go::<L, 0, UNIT, false, S>(scene, volumes, count, io),
+        (UpAxis::Axis(1), false) => go::<L, 1, UNIT, false, S>(scene, volumes, count, io),
+        (UpAxis::Axis(2), false) => go::<L, 2, UNIT, false, S>(scene, volumes, count, io),
+        (_, false) => go::<L, GENERAL, UNIT, false, S>(scene, volumes, count, io),
+        (UpAxis::Axis(0), true) => go::<L, 0, UNIT, true, S>(scene, volumes, count, io),
+        (UpAxis::Axis(1), true) => go::<L, 1, UNIT, true, S>(scene, volumes, count, io),
+        (UpAxis::Axis(2), true) => go::<L, 2, UNIT, true, S>(scene, volumes, count, io),
+        (_, true) => go::<L, GENERAL, UNIT, true, S>(scene, volumes, count, io),
     }
 }
 
@@ -1286,17 +1286,16 @@ fn depth_stages<L: Lane, const FAST: bool>(
     }
 }
 
-/// [`eval_packet`]`::<f32x8, AXIS, UNIT, true, true, FAST>` for each packet of `ins` (at
+/// [`eval_packet`]`::<L, AXIS, UNIT, true, true, FAST>` for each packet of `ins` (at
 /// most [`BLOCK`]), stage by stage over the block as in [`run_single`]: the same stage
 /// functions in the same order, so the same bits. T and L_in are always formed (the
 /// pass wants both); τ too.
 #[inline(always)]
-fn eval_block<const AXIS: usize, const UNIT: bool, const FAST: bool>(
+fn eval_block<L: Lane, const AXIS: usize, const UNIT: bool, const FAST: bool>(
     single: &Single,
-    ins: &[PacketIn<f32x8>],
-    outs: &mut [PacketOut<f32x8>],
+    ins: &[PacketIn<L>],
+    outs: &mut [PacketOut<L>],
 ) {
-    type L = f32x8;
     let single_copy = *single;
     let single = &single_copy;
     let z = L::splat(0.0);

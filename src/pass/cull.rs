@@ -44,13 +44,10 @@ use crate::math::Lane;
 use crate::scene::Scene;
 use wide::f32x8;
 
-/// Tile width in pixels (a multiple of 8: whole packets).
+/// Tile width in pixels (a multiple of 16: whole packets of 8 or 16 lanes).
 pub(crate) const TILE_W: usize = 32;
 /// Tile height in rows.
 pub(crate) const TILE_H: usize = 8;
-
-/// Packets per tile row.
-pub(crate) const TILE_PACKETS: usize = TILE_W / 8;
 
 /// A volume's bounding sphere, widened (see the module documentation); the centre is
 /// relative to the camera field's o₀.

@@ -33,8 +33,10 @@
 //! [`Scene::with_batch_kernel_pass`], runs the batch API's kernel, and a pixel's result is
 //! bit-identical to the batch API's for the ray [`Camera::pixel_ray`] returns: the pass
 //! generates the same f32 ray with the same operations, evaluates it with the same kernel
-//! instantiation (rays not marked unit), pads the tail of a row into one 8-lane packet as
-//! the batch loop does, and composites with one fused multiply-add per channel,
+//! instantiation (rays not marked unit) at the build's width (`kernel::Wide`: 8 lanes, or
+//! 16 with AVX-512, whose lanes give the same bits as 8), pads the tail of a row into one
+//! more packet as the batch loop pads its tail, and composites with one fused
+//! multiply-add per channel,
 //! `L_surface.mul_add(T, L_in)` through [`Lane::mul_add`] (fused where the target has
 //! FMA); the own kernel composites the same way.
 //!
@@ -50,12 +52,13 @@ mod height;
 pub use crate::error::PassError;
 pub use camera::{Camera, DepthConvention, PixelRay, Projection};
 
+use crate::kernel::Wide;
 use crate::kernel::{run_packets, PacketIn, PacketIo, PacketOut};
 use crate::math::Lane;
 use crate::scene::Scene;
 use camera::{FramePlan, RowPlan};
-use cull::{FrameCull, TileLists, TILE_H, TILE_PACKETS};
-use height::HeightPass;
+use cull::{FrameCull, TileLists, TILE_H, TILE_W};
+use height::{HeightPass, PassLane};
 use rayon::prelude::*;
 use wide::f32x8;
 
@@ -587,59 +590,69 @@ impl RowColour for Planar<'_> {
     }
 }
 
-/// Column offsets of the 8 lanes of a packet.
-const LANE_X: [f32; 8] = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0];
-
-/// One row of the pass, as the kernel's ray source and result sink.
-struct RowIo<'a, R> {
+/// One row of the pass, as the kernel's ray source and result sink, in packets of
+/// `W::LANES` pixels.
+struct RowIo<'a, R, W> {
     plan: &'a FramePlan,
     row: RowPlan,
     depth: &'a [f32],
     out: R,
     /// The row's packet that the kernel's packet 0 is.
     first: usize,
+    lanes: core::marker::PhantomData<W>,
 }
 
-impl<R: RowColour> PacketIo for RowIo<'_, R> {
+impl<R: RowColour, W: PassLane> PacketIo<W> for RowIo<'_, R, W> {
     #[inline(always)]
-    fn make(&mut self, i: usize) -> PacketIn<f32x8> {
-        let x0 = (self.first + i) * 8;
+    fn make(&mut self, i: usize) -> PacketIn<W> {
+        let n = W::LANES;
+        let x0 = (self.first + i) * n;
         let width = self.depth.len();
-        let dv = if x0 + 8 <= width {
-            f32x8::load(&self.depth[x0..x0 + 8])
+        let dv = if x0 + n <= width {
+            W::load(&self.depth[x0..x0 + n])
         } else {
-            let mut b = [0.0f32; 8];
+            let mut b = [0.0f32; 16];
             b[..width - x0].copy_from_slice(&self.depth[x0..]);
-            f32x8::new(b)
+            W::load(&b[..n])
         };
         // x0 + k is exact in f32 (width ≤ 2^24): the value pixel_ray uses.
-        let xs = f32x8::splat(x0 as f32) + f32x8::new(LANE_X);
+        let xs = W::splat(x0 as f32) + W::lane_x();
         let (o, d, t) = self.plan.ray(&self.row, xs, dv);
         PacketIn { o, d, t }
     }
 
     #[inline(always)]
-    fn take(&mut self, i: usize, r: &PacketOut<f32x8>) {
-        let x0 = (self.first + i) * 8;
-        let n = (self.depth.len() - x0).min(8);
-        let c = self.out.load(x0, n);
-        let v = [0, 1, 2].map(|ch| Lane::mul_add(c[ch], r.trans[ch], r.insc[ch]));
-        self.out.store(x0, n, v);
+    fn take(&mut self, i: usize, r: &PacketOut<W>) {
+        let x0 = (self.first + i) * W::LANES;
+        let n = (self.depth.len() - x0).min(W::LANES);
+        // In 8-pixel pieces (the colour layouts load and store 8 lanes).
+        for h in 0..W::LANES / 8 {
+            let live = n.saturating_sub(8 * h).min(8);
+            if live > 0 {
+                let x = x0 + 8 * h;
+                let c = self.out.load(x, live);
+                let v = [0, 1, 2]
+                    .map(|ch| Lane::mul_add(c[ch], r.trans[ch].part(h), r.insc[ch].part(h)));
+                self.out.store(x, live, v);
+            }
+        }
     }
 }
 
-/// Fogs one row: rays generated 8 pixels at a time, the tail (width % 8) padded into one
-/// more 8-lane packet (depth 0 in the dead lanes, whose results are dropped).
+/// Fogs one row: rays generated [`Wide`] pixels at a time (8, or 16 in an AVX-512 build),
+/// the tail (width % lanes) padded into one more packet (depth 0 in the dead lanes, whose
+/// results are dropped).
 #[inline(never)]
 fn fog_row<R: RowColour>(scene: &Scene, plan: &FramePlan, y: usize, depth: &[f32], out: R) {
-    let mut io = RowIo {
+    let mut io = RowIo::<R, Wide> {
         plan,
         row: plan.row(y),
         depth,
         out,
         first: 0,
+        lanes: core::marker::PhantomData,
     };
-    run_packets::<false, _>(scene, None, depth.len().div_ceil(8), &mut io);
+    run_packets::<Wide, false, _>(scene, None, depth.len().div_ceil(Wide::LANES), &mut io);
 }
 
 /// Fogs a band of rows starting at row `y0` (`depth`: their depth values; `rows`: their
@@ -667,7 +680,7 @@ fn fog_band_tiled<R: RowColour>(
 }
 
 /// [`fog_row`] with the tiles' candidate volumes: the packets of tile `j` (the row's
-/// packets `j·TILE_PACKETS ..`) evaluate only `lists.list(j)`. The same packets as
+/// packets `j·TILE_W/lanes ..`) evaluate only `lists.list(j)`. The same packets as
 /// [`fog_row`] (tail included), so the same bits.
 #[inline(never)]
 fn fog_row_tiled<R: RowColour>(
@@ -678,17 +691,19 @@ fn fog_row_tiled<R: RowColour>(
     out: &mut R,
     lists: &TileLists,
 ) {
-    let packets = depth.len().div_ceil(8);
-    let mut io = RowIo {
+    let packets = depth.len().div_ceil(Wide::LANES);
+    let tile_packets = TILE_W / Wide::LANES;
+    let mut io = RowIo::<&mut R, Wide> {
         plan,
         row: plan.row(y),
         depth,
         out,
         first: 0,
+        lanes: core::marker::PhantomData,
     };
     for j in 0..lists.len() {
-        io.first = j * TILE_PACKETS;
-        let count = (packets - io.first).min(TILE_PACKETS);
-        run_packets::<false, _>(scene, Some(lists.list(j)), count, &mut io);
+        io.first = j * tile_packets;
+        let count = (packets - io.first).min(tile_packets);
+        run_packets::<Wide, false, _>(scene, Some(lists.list(j)), count, &mut io);
     }
 }
