@@ -639,20 +639,36 @@ impl<R: RowColour, W: PassLane> PacketIo<W> for RowIo<'_, R, W> {
     }
 }
 
-/// Fogs one row: rays generated [`Wide`] pixels at a time (8, or 16 in an AVX-512 build),
-/// the tail (width % lanes) padded into one more packet (depth 0 in the dead lanes, whose
-/// results are dropped).
+/// Fogs one row: rays generated a packet at a time, the tail padded into one more packet
+/// (depth 0 in the dead lanes, whose results are dropped). Packets of [`Wide`] lanes (8,
+/// or 16 in an AVX-512 build) for the general kernel, of 8 for a single layer: its staged
+/// blocks measured 0.85× as fast with 16 lanes in the pass (`pass/fog_single_batch_kernel`
+/// 12.3 → 14.0 and 15.3 ms on Zen 4), where the general kernel gained 1.15× to 1.3×
+/// (`volumes_10` and `volumes_1000` of `benches/pass_volumes.rs`). Same bits either way.
 #[inline(never)]
 fn fog_row<R: RowColour>(scene: &Scene, plan: &FramePlan, y: usize, depth: &[f32], out: R) {
-    let mut io = RowIo::<R, Wide> {
-        plan,
-        row: plan.row(y),
-        depth,
-        out,
-        first: 0,
-        lanes: core::marker::PhantomData,
-    };
-    run_packets::<Wide, false, _>(scene, None, depth.len().div_ceil(Wide::LANES), &mut io);
+    fn go<R: RowColour, W: PassLane>(
+        scene: &Scene,
+        plan: &FramePlan,
+        y: usize,
+        depth: &[f32],
+        out: R,
+    ) {
+        let mut io = RowIo::<R, W> {
+            plan,
+            row: plan.row(y),
+            depth,
+            out,
+            first: 0,
+            lanes: core::marker::PhantomData,
+        };
+        run_packets::<W, false, _>(scene, None, depth.len().div_ceil(W::LANES), &mut io);
+    }
+    if crate::kernel::Single::of(scene).is_some() {
+        go::<R, f32x8>(scene, plan, y, depth, out)
+    } else {
+        go::<R, Wide>(scene, plan, y, depth, out)
+    }
 }
 
 /// Fogs a band of rows starting at row `y0` (`depth`: their depth values; `rows`: their
