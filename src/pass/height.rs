@@ -141,7 +141,7 @@ pub(crate) trait PassLane: Lane<Mask = Self> {
     fn lane_x() -> Self;
     /// `vrsqrtps` on each 8 lanes.
     fn rsqrt_estimate(self) -> Self;
-    /// Lane `h` of the 8-lane pieces (`h < LANES / 8`).
+    /// The `h`-th piece of 8 lanes (lanes 8h to 8h + 7; `h < LANES / 8`).
     fn part(self, h: usize) -> f32x8;
     /// Each lane repeated three times, `v0 v0 v0 v1 v1 v1 v2 …` over three vectors: a
     /// per-pixel value laid out as an interleaved RGB buffer (one permutation each).
@@ -585,15 +585,7 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
                 c[1] * (one - trans[1]),
                 c[2] * (one - trans[2]),
             ];
-            // In 8-pixel pieces (the row's colour layouts are written for 8 lanes).
-            for h in 0..n_lanes / 8 {
-                let live = n.saturating_sub(8 * h).min(8);
-                if live > 0 {
-                    let t = [trans[0].part(h), trans[1].part(h), trans[2].part(h)];
-                    let l = [insc[0].part(h), insc[1].part(h), insc[2].part(h)];
-                    out.fog(x0 + 8 * h, live, t, l);
-                }
-            }
+            out.fog_wide(x0, n, trans, insc);
         }
         x0 += n_lanes;
     }

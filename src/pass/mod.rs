@@ -456,6 +456,19 @@ trait RowColour {
         let v = [0, 1, 2].map(|ch| Lane::mul_add(c[ch], trans[ch], insc[ch]));
         self.store(x0, n, v);
     }
+    /// [`RowColour::fog`] for a packet of `W::LANES` pixels (`n` of them live), in pieces
+    /// of 8: the layouts load and store 8 lanes.
+    #[inline(always)]
+    fn fog_wide<W: PassLane>(&mut self, x0: usize, n: usize, trans: [W; 3], insc: [W; 3]) {
+        for h in 0..W::LANES / 8 {
+            let live = n.saturating_sub(8 * h).min(8);
+            if live > 0 {
+                let t = [trans[0].part(h), trans[1].part(h), trans[2].part(h)];
+                let l = [insc[0].part(h), insc[1].part(h), insc[2].part(h)];
+                self.fog(x0 + 8 * h, live, t, l);
+            }
+        }
+    }
 }
 
 /// Three channel lanes of 8 pixels as the 24 interleaved values `r0 g0 b0 r1 …` in three
@@ -625,17 +638,7 @@ impl<R: RowColour, W: PassLane> PacketIo<W> for RowIo<'_, R, W> {
     fn take(&mut self, i: usize, r: &PacketOut<W>) {
         let x0 = (self.first + i) * W::LANES;
         let n = (self.depth.len() - x0).min(W::LANES);
-        // In 8-pixel pieces (the colour layouts load and store 8 lanes).
-        for h in 0..W::LANES / 8 {
-            let live = n.saturating_sub(8 * h).min(8);
-            if live > 0 {
-                let x = x0 + 8 * h;
-                let c = self.out.load(x, live);
-                let v = [0, 1, 2]
-                    .map(|ch| Lane::mul_add(c[ch], r.trans[ch].part(h), r.insc[ch].part(h)));
-                self.out.store(x, live, v);
-            }
-        }
+        self.out.fog_wide(x0, n, r.trans, r.insc);
     }
 }
 
