@@ -615,6 +615,20 @@ struct RowIo<'a, R, W> {
     lanes: core::marker::PhantomData<W>,
 }
 
+impl<'a, R, W> RowIo<'a, R, W> {
+    /// Row `y` of the frame, from its first packet.
+    fn new(plan: &'a FramePlan, y: usize, depth: &'a [f32], out: R) -> Self {
+        RowIo {
+            plan,
+            row: plan.row(y),
+            depth,
+            out,
+            first: 0,
+            lanes: core::marker::PhantomData,
+        }
+    }
+}
+
 impl<R: RowColour, W: PassLane> PacketIo<W> for RowIo<'_, R, W> {
     #[inline(always)]
     fn make(&mut self, i: usize) -> PacketIn<W> {
@@ -657,14 +671,7 @@ fn fog_row<R: RowColour>(scene: &Scene, plan: &FramePlan, y: usize, depth: &[f32
         depth: &[f32],
         out: R,
     ) {
-        let mut io = RowIo::<R, W> {
-            plan,
-            row: plan.row(y),
-            depth,
-            out,
-            first: 0,
-            lanes: core::marker::PhantomData,
-        };
+        let mut io = RowIo::<R, W>::new(plan, y, depth, out);
         run_packets::<W, false, _>(scene, None, depth.len().div_ceil(W::LANES), &mut io);
     }
     if crate::kernel::Single::of(scene).is_some() {
@@ -712,14 +719,7 @@ fn fog_row_tiled<R: RowColour>(
 ) {
     let packets = depth.len().div_ceil(Wide::LANES);
     let tile_packets = TILE_W / Wide::LANES;
-    let mut io = RowIo::<&mut R, Wide> {
-        plan,
-        row: plan.row(y),
-        depth,
-        out,
-        first: 0,
-        lanes: core::marker::PhantomData,
-    };
+    let mut io = RowIo::<&mut R, Wide>::new(plan, y, depth, out);
     for j in 0..lists.len() {
         io.first = j * tile_packets;
         let count = (packets - io.first).min(tile_packets);
