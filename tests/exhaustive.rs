@@ -5,8 +5,8 @@
 //! ```
 //!
 //! Every f32 input of each function's domain (all 2^32 bit patterns for `exp`, `expm1`,
-//! `exp_split` and `frexp`; every f32 >= 0 for `exp_neg`, every f32 >= 2^-60 for
-//! `exprel_neg`; every mantissa of `ldexp`'s precondition domain with a sampled exponent)
+//! `exp_split`, `frexp` and `exp2m1`; every f32 >= 0 for `exp_neg`, every f32 <= 0 for
+//! `exp2_nonpos`, every f32 >= 2^-60 for `exprel_neg`; every mantissa of `ldexp`'s precondition domain with a sampled exponent)
 //! is evaluated 8 at a time through the `wide::f32x8` instantiation, and one at a time
 //! through the scalar `f32` instantiation, which must give the same bits. Errors are
 //! measured in ULP of the correctly rounded f32 result (2^-149 for subnormal results)
@@ -23,6 +23,8 @@ const EXP_MAX_ULP: f64 = 1.08;
 const EXPM1_MAX_ULP: f64 = 1.44;
 const EXP_NEG_MAX_ULP: f64 = 1.07;
 const EXPREL_NEG_MAX_ULP: f64 = 1.73;
+const EXP2_NONPOS_MAX_ULP: f64 = 0.88;
+const EXP2M1_MAX_ULP: f64 = 1.69;
 /// `exp_split`'s `m · 2^k` (not rounded into the f32 range), for x in [-104, 89].
 const EXP_SPLIT_MAX_ULP: f64 = 1.08;
 
@@ -421,6 +423,129 @@ fn exp_neg_exhaustive() {
         "exp_neg: absolute error {} * 2^-126 for results below 2^-126",
         st.flushed.worst.ulp
     );
+}
+
+// ---------------------------------------------------------------------------------------
+// exp2_nonpos (the pass's transmittance)
+
+#[test]
+#[ignore = "exhaustive sweep: run in release with --ignored"]
+fn exp2_nonpos_exhaustive() {
+    // Domain y <= 0: every f32 in [-inf, -0], +0, and the negative NaNs.
+    let ranges = vec![(0, 0), (0x8000_0000, 0xffff_ffff)];
+    let st: ExpNegState = sweep(
+        &ranges,
+        |a: ExpNegState, b: ExpNegState| ExpNegState {
+            normal: a.normal.merge(b.normal),
+            flushed: a.flushed.merge(b.flushed),
+            fails: a.fails.merge(b.fails),
+        },
+        |st, xs, live| {
+            let y = x8_and_scalar(
+                xs,
+                live,
+                &mut st.fails,
+                "exp2_nonpos",
+                math::exp2_nonpos,
+                math::exp2_nonpos,
+            );
+            for l in 0..live {
+                let x = xs[l];
+                if x.is_nan() {
+                    st.fails
+                        .check(y[l].is_nan(), || format!("exp2_nonpos(NaN) = {:e}", y[l]));
+                    continue;
+                }
+                let r = (x as f64).exp2();
+                if r >= f32::MIN_POSITIVE as f64 {
+                    st.normal.record(x, y[l], r, ulp_err(y[l], r));
+                } else {
+                    let abs = (y[l] as f64 - r).abs();
+                    st.flushed
+                        .record(x, y[l], r, abs / f32::MIN_POSITIVE as f64);
+                }
+            }
+        },
+    );
+    println!();
+    st.normal
+        .print("math::exp2_nonpos", "[-126, 0] (results >= 2^-126)");
+    println!(
+        "math::exp2_nonpos        [-inf, -126): max |error| {:e} = {:.4} * 2^-126 at x = {:e}",
+        st.flushed.worst.ulp * f32::MIN_POSITIVE as f64,
+        st.flushed.worst.ulp,
+        st.flushed.worst.x
+    );
+    st.fails.assert_none("exp2_nonpos");
+    assert_eq!(st.normal.n, (-126f32).to_bits() as u64 - 0x8000_0000 + 2);
+    assert_max("exp2_nonpos", &st.normal, EXP2_NONPOS_MAX_ULP);
+    assert!(
+        st.flushed.worst.ulp < 1.0,
+        "exp2_nonpos: absolute error {} * 2^-126 for results below 2^-126",
+        st.flushed.worst.ulp
+    );
+}
+
+// ---------------------------------------------------------------------------------------
+// exp2m1 (the pass's E(Δ))
+
+#[derive(Default)]
+struct Exp2m1State {
+    /// [-64, 127]: relative error.
+    domain: Errors,
+    fails: Failures,
+}
+
+#[test]
+#[ignore = "exhaustive sweep: run in release with --ignored"]
+fn exp2m1_exhaustive() {
+    let at127 = math::exp2m1(127.0f32);
+    let st: Exp2m1State = sweep(
+        &all_f32(),
+        |a: Exp2m1State, b: Exp2m1State| Exp2m1State {
+            domain: a.domain.merge(b.domain),
+            fails: a.fails.merge(b.fails),
+        },
+        |st, xs, live| {
+            let y = x8_and_scalar(
+                xs,
+                live,
+                &mut st.fails,
+                "exp2m1",
+                math::exp2m1,
+                math::exp2m1,
+            );
+            for l in 0..live {
+                let x = xs[l];
+                if x.is_nan() {
+                    st.fails
+                        .check(y[l].is_nan(), || format!("exp2m1(NaN) = {:e}", y[l]));
+                    continue;
+                }
+                if x < -64.0 {
+                    // 2^x < 2^-64: −1 exactly (what 2^x − 1 rounds to).
+                    st.fails.check(y[l] == -1.0, || {
+                        format!("exp2m1({x:e}) = {:e}, want -1", y[l])
+                    });
+                    continue;
+                }
+                if x > 127.0 {
+                    // Clamped: the value at 127.
+                    st.fails.check(y[l].to_bits() == at127.to_bits(), || {
+                        format!("exp2m1({x:e}) = {:e}, want exp2m1(127)", y[l])
+                    });
+                    continue;
+                }
+                let r = (x as f64 * core::f64::consts::LN_2).exp_m1();
+                st.domain.record(x, y[l], r, ulp_err(y[l], r));
+            }
+        },
+    );
+    println!();
+    st.domain.print("math::exp2m1", "[-64, 127]");
+    st.fails.assert_none("exp2m1");
+    assert_eq!(at127, 2f32.powi(127));
+    assert_max("exp2m1", &st.domain, EXP2M1_MAX_ULP);
 }
 
 // ---------------------------------------------------------------------------------------

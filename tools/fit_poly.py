@@ -35,3 +35,14 @@ ln2 = mp.log(2)
 Q = lambda r: (mp.exp(r) - 1 - r) / r**2 if r != 0 else mp.mpf(1) / 2
 fit("exp Q", Q, -ln2 / 2, ln2 / 2, 4)
 fit("expm1 Q", Q, -ln2 / 2, ln2 / 2, 5)
+
+# exp2_nonpos and exp2m1 (the framebuffer pass): 2^f = 1 + f P(f), f in [-1/2, 1/2].
+# The printed error is that of P; for exp2_nonpos the error of 1 + f P(f) against 2^f
+# is what counts (9.2e-9 for degree 5), for exp2m1 that of f P(f) against 2^f - 1,
+# i.e. P's own (5.6e-9 for degree 6).
+P2 = lambda f: (mp.power(2, f) - 1) / f if f != 0 else ln2
+c5 = fit("exp2 P (exp2_nonpos)", P2, -0.5, 0.5, 5)
+worst = max(abs((1 + f * mp.polyval(c5, f)) / mp.power(2, f) - 1)
+            for f in (mp.mpf(i) / 4000 - mp.mpf(1) / 2 for i in range(4001)))
+print(f"    1 + f P(f) against 2^f: max rel err {float(worst):.3e}")
+fit("exp2 P (exp2m1)", P2, -0.5, 0.5, 6)

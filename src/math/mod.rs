@@ -8,6 +8,8 @@
 mod asinh;
 mod erf;
 mod exp;
+mod exp2_nonpos;
+mod exp2m1;
 mod exp_neg;
 mod expm1;
 mod exprel;
@@ -21,6 +23,8 @@ mod log1p;
 pub use asinh::asinh;
 pub use erf::{erf, erfc};
 pub use exp::{exp, exp_split};
+pub use exp2_nonpos::exp2_nonpos;
+pub use exp2m1::exp2m1;
 pub use exp_neg::exp_neg;
 pub use expm1::expm1;
 pub use exprel::exprel_neg;

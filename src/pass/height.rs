@@ -14,6 +14,13 @@
 //! kernel cheaper; the pass outputs T and L_in only, never τ, so τ need not be resolved
 //! beyond where T = e^(−τ) is 0 (τ > 104).
 //!
+//! Both exponentials run in base 2, with log2(e) folded into the frame's constants (in
+//! f64, rounded once): y' = y·log2(e) = (−b·log2 e)·u·t, E = exp2m1(y')/(y'·ln 2), and
+//! T_c = e^(−τ_c) = 2^(−K_c·log2(e)²·g') with g' = n·t·exp2m1(y')/y'. [`exp2m1`] and
+//! [`exp2_nonpos`] need no multiply by log2(e) and no Cody–Waite reduction: 4 fewer
+//! operations on the multiply-add pipes per pixel in the stage of E and 2 per channel in
+//! the stage of T, the pipes that bound this kernel (README "Speed of the pass").
+//!
 //! That plain f32 product is exact to a few roundings, and saturates only where the true
 //! τ is far beyond 104, on the frames that [`HeightPass::new`] accepts (it returns `None`,
 //! and the pass uses the batch kernel, otherwise). With T_BIG = 1e20 (t is clamped to it,
@@ -22,25 +29,28 @@
 //! - clamping t: if Δ(T_BIG) ≥ 20, τ(T_BIG) and τ(t) differ by less than e^(−20)
 //!   relative; otherwise τ(T_BIG) ≥ K_min·n_min·T_BIG·E(20) > 1e4 (requires
 //!   K_min·n_min ≥ 2e-15), so both saturate;
-//! - E overflows (Δ < −88.7) only where τ ≥ K·(n/|u|)·e^88.7/|b| > 1e4 (requires
-//!   K_min/|b| ≥ 3e-35; n ≥ |u| as up is unit);
+//! - E stops growing where `exp2m1` clamps y' at 127 (Δ < −88.03): there E = 2^127/
+//!   (y'·ln 2) and τ = K·n·t·E = K·2^127·n/(|b|·|u|) ≥ K·1.7e38/|b| > 5e3 (requires
+//!   K_min/|b| ≥ 3e-35; n ≥ |u| as up is unit), so T is 0 as it is for the exact τ;
 //! - K_c is a normal f32 (1e-30 ≤ K_c ≤ 1e30 where σ_c > 0);
 //! - nothing else overflows: K_max·n_max·T_BIG ≤ 1e37 and |b|·n_max·T_BIG ≤ 1e37;
 //! - n·t·E is clamped to f32::MAX so that a channel with σ_c = 0 gives τ = 0, not 0·∞.
 //!
 //! The ranges are checked in the log domain: K_c itself can leave even f64's range.
 //!
-//! Error: K_c one rounding (from f64), n two, t (the same f32 ray as the batch API's)
-//! none, Δ two (relative, amplified by |Δ| in E: the problem's condition), E ≤ 2.5 ULP
-//! (`expm1`'s 1.44 and the division), three products: τ within about 8 + 3·|Δ| ULP, inside
-//! the crate's bound 16·2⁻²⁴·(1 + |b·(y₀ − h0)| + |Δ|) (here y₀'s term is resolved in f64).
+//! Error: K_c·log2(e)² one rounding (from f64), n two, t (the same f32 ray as the batch
+//! API's) none, y' three (relative, amplified by |Δ| in E: the problem's condition),
+//! exp2m1 ≤ 1.69 ULP and the division, three products: τ within about 9 + 4·|Δ| ULP,
+//! inside the crate's bound 16·2⁻²⁴·(1 + |b·(y₀ − h0)| + |Δ|) (here y₀'s term is resolved
+//! in f64); T adds the rounding of K·g (τ·2⁻²³ relative, what the bound on τ allows) and
+//! `exp2_nonpos`'s 0.88 ULP.
 //! `tests/pass.rs` checks every pixel of random frames against the batch API.
 
 use super::camera::{DepthPlan, FramePlan, RowPlan};
 use super::RowColour;
 use crate::kernel::{Single, Wide};
 use crate::light::Phase;
-use crate::math::{exp_neg, exp_neg_fast, expm1, Lane};
+use crate::math::{exp2_nonpos, exp2m1, exp_neg_fast, Lane};
 use crate::medium::volume::clamp_colour;
 use crate::scene::{Scene, UpAxis};
 use crate::Tier;
@@ -223,10 +233,12 @@ impl PassLane for f32x16 {
 /// A frame's constants for [`fog_row`].
 #[derive(Clone, Copy)]
 pub(crate) struct HeightPass {
-    /// σ_c · ρ₀ per channel.
+    /// σ_c · ρ₀ · log2(e) per channel: τ_c = k_c·g' (the Fast tier's `exp_neg_fast`).
     k: [f32; 3],
-    /// Falloff along `up`.
-    b: f32,
+    /// −σ_c · ρ₀ · log2(e)²: T_c = 2^(k2_c·g') ([`exp2_nonpos`]; the Accurate tier).
+    k2: [f32; 3],
+    /// Falloff along `up`, times −log2(e): y' = −Δ·log2(e) = b2·u·t.
+    b2: f32,
     /// The kernel's unit up (an axis, with its sign folded into `b`, or the scene's).
     up: [f32; 3],
     /// The up axis's index, 3 for a general up (a predictable branch per packet).
@@ -317,13 +329,15 @@ impl HeightPass {
             return None;
         }
         // (σ_c = 0 stays 0: e^(−a0) may be +∞ here, where no channel has extinction.)
-        let k = layer.sigma_t.map(|s| {
+        let k64 = layer.sigma_t.map(|s| {
             if s > 0.0 {
-                (f64::from(s) * (-a0).exp()) as f32
+                f64::from(s) * (-a0).exp()
             } else {
                 0.0
             }
         });
+        let k = k64.map(|k| (k * core::f64::consts::LOG2_E) as f32);
+        let k2 = k64.map(|k| (-k * core::f64::consts::LOG2_E * core::f64::consts::LOG2_E) as f32);
         // As `FramePlan::ray`: standard z = n / (1 − depth·k), sky at depth ≥ 1; reversed
         // z = n / (depth·k + q), sky at depth ≤ 0.
         let (depth, ndc) = match plan.depth {
@@ -350,7 +364,8 @@ impl HeightPass {
         Some(HeightPass {
             grey: k[0] == k[1] && k[1] == k[2],
             k,
-            b: layer.b,
+            k2,
+            b2: (-f64::from(layer.b) * core::f64::consts::LOG2_E) as f32,
             up,
             axis,
             colour: layer.colour_const,
@@ -405,9 +420,9 @@ const BLOCK: usize = 16;
 
 /// Fogs a row in blocks of [`BLOCK`] packets, each block in three passes over small
 /// buffers: the rays' geometry and phase or fog colour, then the optical depth's factor
-/// g = n·t·E, then T, L_in and the colour. One packet's work is a dependency chain of some
-/// 150 cycles (the reciprocal square root, `expm1`, a division and `exp_neg` in
-/// sequence), longer than the out-of-order window can hide when each packet runs start to
+/// g' = n·t·exp2m1(y')/y', then T, L_in and the colour. One packet's work is a dependency
+/// chain of some 150 cycles (the reciprocal square root, `exp2m1`, a division and
+/// `exp2_nonpos` in sequence), longer than the out-of-order window can hide when each packet runs start to
 /// end; in stages, the packets of a block are independent within each loop.
 ///
 /// An interleaved RGB row with at most one phase function takes the third stage in the
@@ -457,19 +472,27 @@ struct Buffers<W> {
     ps: [W; BLOCK],
     /// More phase functions: the fog colour; else unused.
     colours: [[W; 3]; BLOCK],
+    /// An interleaved RGB row: g and the phase value expanded to the buffer's layout
+    /// ([`PassLane::expand3`]) where they are computed, in a register; expanded from the
+    /// buffers in the third stage, LLVM built each lane from partial loads, shuffles and
+    /// blends (about 10 instructions instead of 3 permutations).
+    gs3: [[W; 3]; BLOCK],
+    ps3: [[W; 3]; BLOCK],
 }
 
 impl<W: PassLane> Buffers<W> {
     fn new(hp: &HeightPass) -> Self {
         let zero = W::splat(0.0);
         Buffers {
-            k3: W::interleaved3(hp.k),
+            k3: W::interleaved3(if hp.fast { hp.k } else { hp.k2 }),
             colour3: W::interleaved3(hp.colour),
             phase_k3: W::interleaved3(hp.phases[0].k),
             ys: [zero; BLOCK],
             gs: [zero; BLOCK],
             ps: [zero; BLOCK],
             colours: [[zero; 3]; BLOCK],
+            gs3: [[zero; 3]; BLOCK],
+            ps3: [[zero; 3]; BLOCK],
         }
     }
 }
@@ -488,9 +511,16 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     bufs: &mut Buffers<W>,
     out: &mut R,
 ) {
-    let exp_neg = |x: W| if FAST { exp_neg_fast(x) } else { exp_neg(x) };
+    // T = e^(−K_c·g): the Fast tier's `exp_neg_fast` of K_c·g, or 2^(k2_c·g).
+    let kk = if FAST { hp.k } else { hp.k2 };
+    let trans = |kg: W| {
+        if FAST {
+            exp_neg_fast(kg)
+        } else {
+            exp2_nonpos(kg)
+        }
+    };
     let zero = W::splat(0.0);
-    let one = W::splat(1.0);
     let n_lanes = W::LANES;
     let m = depth.len() / n_lanes;
     let Buffers {
@@ -501,17 +531,24 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
         gs,
         ps,
         colours,
+        gs3,
+        ps3,
     } = bufs;
     let (ys, gs, ps, colours) = (&mut ys[..m], &mut gs[..m], &mut ps[..m], &mut colours[..m]);
+    let (gs3, ps3) = (&mut gs3[..m], &mut ps3[..m]);
+    // The third stage takes the buffer's own layout (full packets of an interleaved RGB
+    // row with at most one phase function).
+    let rgb3 = R::RGB3 && PH < 2;
     // 1. Geometry: y = −Δ (away from 0), n·t, and the phase value or fog colour.
     // Column indices, exact in f32 (width ≤ 2^24), stepped by N: the values
     // `FramePlan::ray` forms from x0 + k.
     let mut xs = W::splat(x_start as f32) + W::lane_x();
-    for (((dv, y), g), (p, c)) in depth
+    for ((((dv, y), g), (p, c)), p3) in depth
         .chunks_exact(n_lanes)
         .zip(ys.iter_mut())
         .zip(gs.iter_mut())
         .zip(ps.iter_mut().zip(colours.iter_mut()))
+        .zip(ps3.iter_mut())
     {
         // The direction as `FramePlan::ray` forms it.
         let u = xs.mul_add(W::splat(plan.su), W::splat(plan.ou));
@@ -525,50 +562,60 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
         *g = nt;
         if PH == 1 {
             *p = hp.phases[0].eval(d, inv_n, hp.beta);
+            if rgb3 {
+                *p3 = p.expand3();
+            }
         } else if PH > 1 {
             *c = colour(hp, d, inv_n);
         }
         xs = xs + W::splat(n_lanes as f32);
     }
-    // 2. g = n·t·E(Δ), E = expm1(y)/y, clamped to f32::MAX so that K_c = 0 gives 0,
-    // not 0·∞ (n·t > 0 wherever E can be ∞: t = 0 gives y = TINY, E = 1).
-    for (g, &y) in gs.iter_mut().zip(ys.iter()) {
-        *g = Lane::min(W::splat(f32::MAX), (expm1(y) / y) * *g);
+    // 2. g' = n·t·exp2m1(y')/y' (= n·t·E(Δ)·ln 2), clamped to f32::MAX so that K_c = 0
+    // gives 0, not 0·∞.
+    for ((g, g3), &y) in gs.iter_mut().zip(gs3.iter_mut()).zip(ys.iter()) {
+        *g = Lane::min(W::splat(f32::MAX), (exp2m1(y) / y) * *g);
+        if rgb3 && !GREY {
+            *g3 = g.expand3();
+        }
     }
-    // 3. T = e^(−K_c·g), L_in = colour · (1 − T), L ← L·T + L_in.
+    // 3. T = e^(−τ_c) = 2^(k2_c·g'), L_in = colour · (1 − T), L ← L·T + L_in.
     let mut x0 = x_start;
-    for (k, ((&g, &p), c)) in gs.iter().zip(ps.iter()).zip(colours.iter()).enumerate() {
+    for (k, (((&g, &p), c), (g3, p3))) in gs
+        .iter()
+        .zip(ps.iter())
+        .zip(colours.iter())
+        .zip(gs3.iter().zip(ps3.iter()))
+        .enumerate()
+    {
         let n = if k + 1 == m { last_n } else { n_lanes };
-        if R::RGB3 && PH < 2 && n == n_lanes {
+        if rgb3 && n == n_lanes {
             let t = if GREY {
-                exp_neg(W::splat(hp.k[0]) * g).expand3()
+                trans(W::splat(kk[0]) * g).expand3()
             } else {
-                let g = g.expand3();
                 [
-                    exp_neg(k3[0] * g[0]),
-                    exp_neg(k3[1] * g[1]),
-                    exp_neg(k3[2] * g[2]),
+                    trans(k3[0] * g3[0]),
+                    trans(k3[1] * g3[1]),
+                    trans(k3[2] * g3[2]),
                 ]
             };
-            let p = p.expand3();
             let mut insc = [zero; 3];
             for j in 0..3 {
                 let c = if PH == 1 {
-                    clamp_colour(p[j].mul_add(phase_k3[j], colour3[j]))
+                    clamp_colour(p3[j].mul_add(phase_k3[j], colour3[j]))
                 } else {
                     clamp_colour(colour3[j])
                 };
-                insc[j] = c * (one - t[j]);
+                insc[j] = in_scattered(c, t[j]);
             }
             out.fog_rgb3(x0, t, insc);
         } else {
             let trans = if GREY {
-                [exp_neg(W::splat(hp.k[0]) * g); 3]
+                [trans(W::splat(kk[0]) * g); 3]
             } else {
                 [
-                    exp_neg(W::splat(hp.k[0]) * g),
-                    exp_neg(W::splat(hp.k[1]) * g),
-                    exp_neg(W::splat(hp.k[2]) * g),
+                    trans(W::splat(kk[0]) * g),
+                    trans(W::splat(kk[1]) * g),
+                    trans(W::splat(kk[2]) * g),
                 ]
             };
             let c = match PH {
@@ -581,9 +628,9 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
                 _ => *c,
             };
             let insc = [
-                c[0] * (one - trans[0]),
-                c[1] * (one - trans[1]),
-                c[2] * (one - trans[2]),
+                in_scattered(c[0], trans[0]),
+                in_scattered(c[1], trans[1]),
+                in_scattered(c[2], trans[2]),
             ];
             out.fog_wide(x0, n, trans, insc);
         }
@@ -591,8 +638,14 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     }
 }
 
-/// For the rays from the eye along `d` (any length) to depth values `depth`: y = −Δ =
-/// −b·u·t kept away from 0 (E(Δ) = 1 below 2^-60), n·t, and 1/n.
+/// L_in = c · (1 − T) = c − c·T, one fused multiply-add (one rounding instead of two).
+#[inline(always)]
+fn in_scattered<W: PassLane>(c: W, t: W) -> W {
+    c.neg_mul_add(t, c)
+}
+
+/// For the rays from the eye along `d` (any length) to depth values `depth`: y' = −Δ·log2(e)
+/// = b2·u·t kept away from 0 (E(Δ) = 1 below 2^-60), n·t, and 1/n.
 #[inline(always)]
 fn geometry<W: PassLane>(hp: &HeightPass, d: [W; 3], depth: W) -> (W, W, W) {
     let n2 = d[0].mul_add(d[0], d[1].mul_add(d[1], d[2] * d[2]));
@@ -618,7 +671,7 @@ fn geometry<W: PassLane>(hp: &HeightPass, d: [W; 3], depth: W) -> (W, W, W) {
     // rays clamped to T_BIG (`Lane::min`: NaN stays NaN). Not wide's `min`/`max`, which
     // return the other operand for NaN.
     let t = Lane::min(W::splat(T_BIG), Lane::max(W::splat(0.0), t));
-    let y = (W::splat(-hp.b) * u) * t;
+    let y = (W::splat(hp.b2) * u) * t;
     let y = <W as Lane>::select(Lane::lt(Lane::abs(y), W::splat(TINY)), W::splat(TINY), y);
     (y, n * t, inv_n)
 }
