@@ -18,8 +18,8 @@
 //! f64, rounded once): y' = y·log2(e) = (−b·log2 e)·u·t, E = exp2m1(y')/(y'·ln 2), and
 //! T_c = e^(−τ_c) = 2^(−K_c·log2(e)²·g') with g' = n·t·exp2m1(y')/y'. [`exp2m1`] and
 //! [`exp2_nonpos`] need no multiply by log2(e) and no Cody–Waite reduction: 4 fewer
-//! operations on the multiply-add pipes per pixel in the stage of E and 2 per channel in
-//! the stage of T, the pipes that bound this kernel (README "Speed of the pass").
+//! multiply-adds per pixel in the stage of E and 2 per channel in the stage of T (README
+//! "Speed of the pass").
 //!
 //! That plain f32 product is exact to a few roundings, and saturates only where the true
 //! τ is far beyond 104, on the frames that [`HeightPass::new`] accepts (it returns `None`,
@@ -43,7 +43,7 @@
 //! exp2m1 ≤ 1.69 ULP and the division, three products: τ within about 9 + 4·|Δ| ULP,
 //! inside the crate's bound 16·2⁻²⁴·(1 + |b·(y₀ − h0)| + |Δ|) (here y₀'s term is resolved
 //! in f64); T adds the rounding of K·g (τ·2⁻²³ relative, what the bound on τ allows) and
-//! `exp2_nonpos`'s 0.88 ULP.
+//! `exp2_nonpos`'s 1.09 ULP.
 //! `tests/pass.rs` checks every pixel of random frames against the batch API.
 
 use super::camera::{DepthPlan, FramePlan, RowPlan};
