@@ -11,7 +11,7 @@ use analytic_fog::pass::{Camera, ColourBuffer, Depth, DepthConvention, PixelRay,
 use analytic_fog::reference::{self, check_sample};
 use analytic_fog::{
     Component, FogSample, HeightFogLayer, Lighting, Outputs, PassError, Phase, Rays, Scene,
-    SceneDesc, Sun,
+    SceneDesc, Sun, Tier,
 };
 use glam::{DMat4, DVec3, Mat4, Vec3};
 
@@ -1455,4 +1455,74 @@ fn own_kernel_saturation_and_vanishing_terms() {
         zeros > 100 && ones > 100 && steep > 50,
         "{zeros} {ones} {steep}"
     );
+}
+
+/// The own kernel in the Fast tier (`Scene::with_tier(Tier::Fast)`: its transmittance is
+/// `exp_neg_fast` of K·log2(e)·g', the frame constant being in base 2) against the
+/// Accurate batch API: within the Fast tier's budget, 1e-4 in T and in L_in relative to
+/// the fog colour (`Tier`), on random scenes, cameras and depths; and the Accurate own
+/// kernel of the same frames for comparison (within 1e-5).
+#[test]
+fn own_kernel_fast_tier_within_its_budget() {
+    let mut rng = Rng(0xfa57_0001);
+    let (mut own, mut worst_fast, mut worst_acc) = (0, 0.0f64, 0.0f64);
+    for case in 0..120 {
+        let (w, h) = SIZES[case % SIZES.len()];
+        let scene = scene(&mut rng, [0, 2, 3][case % 3]);
+        let cam = camera(&mut rng, w, h);
+        let conv = convention(&mut rng, &cam);
+        if !scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap() {
+            continue;
+        }
+        own += 1;
+        let depth = depths(&mut rng, conv, w * h);
+        let d = Depth {
+            values: &depth,
+            convention: conv,
+        };
+        let n = w * h;
+        let big = 2f32.powi(120);
+        let (bt, bl) = batch_reference(&scene, &cam, w, h, &depth, conv);
+        for (tier, bound, worst) in [
+            (Tier::Fast, 1e-4, &mut worst_fast),
+            (Tier::Accurate, 1e-5, &mut worst_acc),
+        ] {
+            let sc = scene.clone().with_tier(tier);
+            let run = |surface: f32| {
+                let mut c = vec![surface; 3 * n];
+                sc.fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut c))
+                    .unwrap();
+                c
+            };
+            let (black, white) = (run(0.0), run(big));
+            for i in 0..n {
+                let ray = cam.pixel_ray(i % w, i / w, w, h, depth[i], conv).unwrap();
+                if ray.t.is_nan() {
+                    continue;
+                }
+                let r = reference::sample(
+                    scene.desc(),
+                    ray.origin.as_dvec3(),
+                    ray.direction.as_dvec3(),
+                    ray.t as f64,
+                );
+                let scale = r.colour.iter().cloned().fold(1e-30, f64::max);
+                for c in 0..3 {
+                    let l = black[3 * i + c];
+                    let t = ((white[3 * i + c] as f64 - l as f64) / big as f64) as f32;
+                    let dt = (t - bt[i][c]).abs() as f64;
+                    let dl = (l - bl[i][c]).abs() as f64 / scale;
+                    *worst = worst.max(dt).max(dl);
+                    assert!(
+                        dt <= bound && dl <= bound,
+                        "{tier:?}, case {case}, pixel {i}: T {t} vs {}, L_in {l} vs {}",
+                        bt[i][c],
+                        bl[i][c]
+                    );
+                }
+            }
+        }
+    }
+    eprintln!("own kernel: {own} frames; worst Fast {worst_fast:.2e}, Accurate {worst_acc:.2e}");
+    assert!(own >= 30, "own kernel ran {own} frames");
 }
