@@ -368,35 +368,36 @@ struct ExpNegState {
     fails: Failures,
 }
 
-#[test]
-#[ignore = "exhaustive sweep: run in release with --ignored"]
-fn exp_neg_exhaustive() {
-    // Domain x >= 0: every f32 in [0, +inf], -0, and the positive NaNs.
-    let ranges = vec![(0, 0x7fff_ffff), (0x8000_0000, 0x8000_0000)];
+/// A transmittance-like function (results in [0, 1], flushed to 0 below 2^-126) over the
+/// bit patterns `ranges`: ULP error where the f64 result `want(x)` is at least 2^-126, the
+/// absolute error in units of 2^-126 below, NaN for NaN; prints both and asserts `bound`
+/// and an absolute error below 2^-126. Returns the number of inputs in the ULP domain.
+fn transmittance_sweep(
+    name: &str,
+    ranges: &BitRanges,
+    domains: [&str; 2],
+    f8: fn(f32x8) -> f32x8,
+    f1: fn(f32) -> f32,
+    want: fn(f64) -> f64,
+    bound: f64,
+) -> u64 {
     let st: ExpNegState = sweep(
-        &ranges,
+        ranges,
         |a: ExpNegState, b: ExpNegState| ExpNegState {
             normal: a.normal.merge(b.normal),
             flushed: a.flushed.merge(b.flushed),
             fails: a.fails.merge(b.fails),
         },
         |st, xs, live| {
-            let y = x8_and_scalar(
-                xs,
-                live,
-                &mut st.fails,
-                "exp_neg",
-                math::exp_neg,
-                math::exp_neg,
-            );
+            let y = x8_and_scalar(xs, live, &mut st.fails, name, f8, f1);
             for l in 0..live {
                 let x = xs[l];
                 if x.is_nan() {
                     st.fails
-                        .check(y[l].is_nan(), || format!("exp_neg(NaN) = {:e}", y[l]));
+                        .check(y[l].is_nan(), || format!("{name}(NaN) = {:e}", y[l]));
                     continue;
                 }
-                let r = (-(x as f64)).exp();
+                let r = want(x as f64);
                 if r >= f32::MIN_POSITIVE as f64 {
                     st.normal.record(x, y[l], r, ulp_err(y[l], r));
                 } else {
@@ -408,20 +409,37 @@ fn exp_neg_exhaustive() {
         },
     );
     println!();
-    st.normal
-        .print("math::exp_neg", "[0, 87.33] (results >= 2^-126)");
+    let label = format!("math::{name}");
+    st.normal.print(&label, domains[0]);
     println!(
-        "math::exp_neg            (87.33, +inf]: max |error| {:e} = {:.4} * 2^-126 at x = {:e}",
+        "{label:<24} {}: max |error| {:e} = {:.4} * 2^-126 at x = {:e}",
+        domains[1],
         st.flushed.worst.ulp * f32::MIN_POSITIVE as f64,
         st.flushed.worst.ulp,
         st.flushed.worst.x
     );
-    st.fails.assert_none("exp_neg");
-    assert_max("exp_neg", &st.normal, EXP_NEG_MAX_ULP);
+    st.fails.assert_none(name);
+    assert_max(name, &st.normal, bound);
     assert!(
         st.flushed.worst.ulp < 1.0,
-        "exp_neg: absolute error {} * 2^-126 for results below 2^-126",
+        "{name}: absolute error {} * 2^-126 for results below 2^-126",
         st.flushed.worst.ulp
+    );
+    st.normal.n
+}
+
+#[test]
+#[ignore = "exhaustive sweep: run in release with --ignored"]
+fn exp_neg_exhaustive() {
+    // Domain x >= 0: every f32 in [0, +inf], -0, and the positive NaNs.
+    let _ = transmittance_sweep(
+        "exp_neg",
+        &vec![(0, 0x7fff_ffff), (0x8000_0000, 0x8000_0000)],
+        ["[0, 87.33] (results >= 2^-126)", "(87.33, +inf]"],
+        math::exp_neg,
+        math::exp_neg,
+        |x| (-x).exp(),
+        EXP_NEG_MAX_ULP,
     );
 }
 
@@ -432,58 +450,17 @@ fn exp_neg_exhaustive() {
 #[ignore = "exhaustive sweep: run in release with --ignored"]
 fn exp2_nonpos_exhaustive() {
     // Domain y <= 0: every f32 in [-inf, -0], +0, and the negative NaNs.
-    let ranges = vec![(0, 0), (0x8000_0000, 0xffff_ffff)];
-    let st: ExpNegState = sweep(
-        &ranges,
-        |a: ExpNegState, b: ExpNegState| ExpNegState {
-            normal: a.normal.merge(b.normal),
-            flushed: a.flushed.merge(b.flushed),
-            fails: a.fails.merge(b.fails),
-        },
-        |st, xs, live| {
-            let y = x8_and_scalar(
-                xs,
-                live,
-                &mut st.fails,
-                "exp2_nonpos",
-                math::exp2_nonpos,
-                math::exp2_nonpos,
-            );
-            for l in 0..live {
-                let x = xs[l];
-                if x.is_nan() {
-                    st.fails
-                        .check(y[l].is_nan(), || format!("exp2_nonpos(NaN) = {:e}", y[l]));
-                    continue;
-                }
-                let r = (x as f64).exp2();
-                if r >= f32::MIN_POSITIVE as f64 {
-                    st.normal.record(x, y[l], r, ulp_err(y[l], r));
-                } else {
-                    let abs = (y[l] as f64 - r).abs();
-                    st.flushed
-                        .record(x, y[l], r, abs / f32::MIN_POSITIVE as f64);
-                }
-            }
-        },
+    let n = transmittance_sweep(
+        "exp2_nonpos",
+        &vec![(0, 0), (0x8000_0000, 0xffff_ffff)],
+        ["[-126, 0] (results >= 2^-126)", "[-inf, -126)"],
+        math::exp2_nonpos,
+        math::exp2_nonpos,
+        |x| x.exp2(),
+        EXP2_NONPOS_MAX_ULP,
     );
-    println!();
-    st.normal
-        .print("math::exp2_nonpos", "[-126, 0] (results >= 2^-126)");
-    println!(
-        "math::exp2_nonpos        [-inf, -126): max |error| {:e} = {:.4} * 2^-126 at x = {:e}",
-        st.flushed.worst.ulp * f32::MIN_POSITIVE as f64,
-        st.flushed.worst.ulp,
-        st.flushed.worst.x
-    );
-    st.fails.assert_none("exp2_nonpos");
-    assert_eq!(st.normal.n, (-126f32).to_bits() as u64 - 0x8000_0000 + 2);
-    assert_max("exp2_nonpos", &st.normal, EXP2_NONPOS_MAX_ULP);
-    assert!(
-        st.flushed.worst.ulp < 1.0,
-        "exp2_nonpos: absolute error {} * 2^-126 for results below 2^-126",
-        st.flushed.worst.ulp
-    );
+    // Every f32 in [-126, -0] and +0 is in the ULP domain.
+    assert_eq!(n, (-126f32).to_bits() as u64 - 0x8000_0000 + 2);
 }
 
 // ---------------------------------------------------------------------------------------
