@@ -239,7 +239,7 @@ pub(crate) struct HeightPass {
     k2: [f32; 3],
     /// Falloff along `up`, times −log2(e): y' = −Δ·log2(e) = b2·u·t.
     b2: f32,
-    /// The kernel's unit up (an axis, with its sign folded into `b`, or the scene's).
+    /// The kernel's unit up (an axis, with its sign folded into `b2`, or the scene's).
     up: [f32; 3],
     /// The up axis's index, 3 for a general up (a predictable branch per packet).
     axis: usize,
@@ -422,8 +422,9 @@ const BLOCK: usize = 16;
 /// buffers: the rays' geometry and phase or fog colour, then the optical depth's factor
 /// g' = n·t·exp2m1(y')/y', then T, L_in and the colour. One packet's work is a dependency
 /// chain of some 150 cycles (the reciprocal square root, `exp2m1`, a division and
-/// `exp2_nonpos` in sequence), longer than the out-of-order window can hide when each packet runs start to
-/// end; in stages, the packets of a block are independent within each loop.
+/// `exp2_nonpos` in sequence), longer than the out-of-order window can hide when each
+/// packet runs start to end; in stages, the packets of a block are independent within
+/// each loop.
 ///
 /// An interleaved RGB row with at most one phase function takes the third stage in the
 /// buffer's own layout: g (and the phase value) expanded to three lanes per packet
@@ -511,7 +512,7 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     bufs: &mut Buffers<W>,
     out: &mut R,
 ) {
-    // T = e^(−K_c·g): the Fast tier's `exp_neg_fast` of K_c·g, or 2^(k2_c·g).
+    // T = e^(−τ_c): the Fast tier's `exp_neg_fast` of τ_c = k_c·g', or 2^(k2_c·g').
     let kk = if FAST { hp.k } else { hp.k2 };
     let trans = |kg: W| {
         if FAST {
@@ -539,7 +540,7 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     // The third stage takes the buffer's own layout (full packets of an interleaved RGB
     // row with at most one phase function).
     let rgb3 = R::RGB3 && PH < 2;
-    // 1. Geometry: y = −Δ (away from 0), n·t, and the phase value or fog colour.
+    // 1. Geometry: y' = −Δ·log2(e) (away from 0), n·t, and the phase value or fog colour.
     // Column indices, exact in f32 (width ≤ 2^24), stepped by N: the values
     // `FramePlan::ray` forms from x0 + k.
     let mut xs = W::splat(x_start as f32) + W::lane_x();
