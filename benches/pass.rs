@@ -3,6 +3,7 @@
 //!
 //! - `pass/fog_par`, `pass/fog_single`: `Scene::fog_pass` / `Scene::fog_pass_single`
 //!   (this frame runs the pass's own one-layer kernel).
+//! - `pass/fog_par_fast`, `pass/fog_single_fast`: the same with `Tier::Fast`.
 //! - `pass/fog_single_batch_kernel`: `fog_pass_single` with the batch API's kernel
 //!   (`Scene::with_batch_kernel_pass`, bit-identical to `Scene::evaluate`).
 //! - `pass/plain_par`, `pass/plain_single`: a pass that reads the same depth and colour
@@ -13,7 +14,7 @@
 //! `cargo bench --bench pass -- --warm-up-time 1 --measurement-time 5`
 
 use analytic_fog::pass::{Camera, ColourBuffer, Depth, DepthConvention};
-use analytic_fog::{Component, HeightFogLayer, Lighting, Phase, Scene, SceneDesc, Sun};
+use analytic_fog::{Component, HeightFogLayer, Lighting, Phase, Scene, SceneDesc, Sun, Tier};
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -251,6 +252,35 @@ fn bench(c: &mut Criterion) {
                     ColourBuffer::Rgb(&mut buf),
                 )
                 .unwrap()
+        })
+    });
+    // The Fast tier (`Tier::Fast`: T and E within its 1e-4 budget) through the own
+    // kernel, on both cores and on one.
+    let fast = scene.clone().with_tier(Tier::Fast);
+    let mut buf = colour.clone();
+    g.bench_function("fog_par_fast", |b| {
+        b.iter(|| {
+            fast.fog_pass(
+                &cam,
+                W,
+                H,
+                Depth::linear_view(black_box(&depth)),
+                ColourBuffer::Rgb(&mut buf),
+            )
+            .unwrap()
+        })
+    });
+    let mut buf = colour.clone();
+    g.bench_function("fog_single_fast", |b| {
+        b.iter(|| {
+            fast.fog_pass_single(
+                &cam,
+                W,
+                H,
+                Depth::linear_view(black_box(&depth)),
+                ColourBuffer::Rgb(&mut buf),
+            )
+            .unwrap()
         })
     });
     let batch_kernel = scene.clone().with_batch_kernel_pass();
