@@ -185,6 +185,42 @@ fn depths(rng: &mut Rng, conv: DepthConvention, n: usize) -> Vec<f32> {
         .collect()
 }
 
+/// The surface value whose fogged result recovers T: 2^120·T + L_in is rounded once, and
+/// 2^120 is far above every L_in of these scenes.
+const BIG: f32 = 1.329_228e36; // 2^120 exactly (1.329228e36 rounds to it)
+
+/// T from one pixel fogged over a surface of [`BIG`] (`white`) and over black (`black`,
+/// which is L_in exactly): (white − black) / 2^120 in f64.
+fn recover_t(white: f32, black: f32) -> f32 {
+    ((white as f64 - black as f64) / BIG as f64) as f32
+}
+
+/// Checks a pixel's T and L_in against the f64 reference with the crate's bound
+/// (`reference::check_sample`); τ is taken from the reference, the pass having no τ
+/// output. Returns the reference's sample for further comparisons.
+fn check_pixel(
+    desc: &SceneDesc,
+    ray: &PixelRay,
+    t: [f32; 3],
+    l: [f32; 3],
+    ctx: impl Fn() -> String,
+) -> (reference::RefSample, reference::SampleCheck) {
+    let r = reference::sample(
+        desc,
+        ray.origin.as_dvec3(),
+        ray.direction.as_dvec3(),
+        ray.t as f64,
+    );
+    let got = FogSample {
+        tau: Vec3::from_array(r.tau.map(|v| v as f32)),
+        transmittance: Vec3::from_array(t),
+        inscattering: Vec3::from_array(l),
+    };
+    let chk = check_sample(desc, ray.origin, ray.direction, ray.t, &got);
+    assert!(chk.passed(), "{:?}: {}", chk.failure, ctx());
+    (r, chk)
+}
+
 /// Transmittance and in-scattering from the batch API for the rays of `pixel_ray`.
 fn batch_reference(
     scene: &Scene,
@@ -396,8 +432,8 @@ fn large_frame_parallel_equals_single_and_eval_ray() {
 /// within 1e-5 of the colour scale.
 #[test]
 fn own_kernel_within_the_accuracy_bound() {
+    assert_eq!(BIG, 2f32.powi(120));
     let mut rng = Rng(0x0dd_ba11);
-    let big = 2f32.powi(120);
     let (mut own, mut declined, mut pixels, mut worst) = (0, 0, 0usize, 0.0f64);
     let (mut dt_max, mut dl_max) = (0.0f32, 0.0f64);
     for case in 0..240 {
@@ -439,7 +475,7 @@ fn own_kernel_within_the_accuracy_bound() {
         };
         let n = w * h;
         let mut black = [vec![0.0f32; n], vec![0.0; n], vec![0.0; n]];
-        let mut white = [vec![big; n], vec![big; n], vec![big; n]];
+        let mut white = [vec![BIG; n], vec![BIG; n], vec![BIG; n]];
         let [r, g, b] = &mut black;
         scene
             .fog_pass(&cam, w, h, d, ColourBuffer::Planar([r, g, b]))
@@ -450,7 +486,7 @@ fn own_kernel_within_the_accuracy_bound() {
             .unwrap();
         // The interleaved layouts give the same bits (RGB takes its own path in the own
         // kernel: T and L_in in the buffer's layout).
-        for (surface, planes) in [(0.0, &black), (big, &white)] {
+        for (surface, planes) in [(0.0, &black), (BIG, &white)] {
             let mut rgb = vec![surface; 3 * n];
             scene
                 .fog_pass_single(&cam, w, h, d, ColourBuffer::Rgb(&mut rgb))
@@ -488,19 +524,7 @@ fn own_kernel_within_the_accuracy_bound() {
             }
             pixels += 1;
             let l = [0, 1, 2].map(|c| black[c][i]);
-            let t = [0, 1, 2].map(|c| ((white[c][i] as f64 - l[c] as f64) / big as f64) as f32);
-            let r = reference::sample(
-                &desc,
-                ray.origin.as_dvec3(),
-                ray.direction.as_dvec3(),
-                ray.t as f64,
-            );
-            let got = FogSample {
-                tau: Vec3::from_array(r.tau.map(|v| v as f32)),
-                transmittance: Vec3::from_array(t),
-                inscattering: Vec3::from_array(l),
-            };
-            let chk = check_sample(&desc, ray.origin, ray.direction, ray.t, &got);
+            let t = [0, 1, 2].map(|c| recover_t(white[c][i], l[c]));
             let ctx = || {
                 format!(
                     "case {case}, {w}x{h}, pixel ({}, {}), {conv:?}, depth {}, {cam:?}, {desc:?}",
@@ -509,7 +533,7 @@ fn own_kernel_within_the_accuracy_bound() {
                     depth[i]
                 )
             };
-            assert!(chk.passed(), "{:?}: {}", chk.failure, ctx());
+            let (r, chk) = check_pixel(&desc, &ray, t, l, ctx);
             worst = worst.max(chk.trans_ratio.max(chk.insc_ratio));
             let scale = r.colour.iter().cloned().fold(1e-30, f64::max);
             for c in 0..3 {
@@ -1328,7 +1352,6 @@ fn many_small_volumes_large_frame_bit_identical() {
 #[test]
 fn own_kernel_saturation_and_vanishing_terms() {
     let (w, h) = (29, 7);
-    let big = 2f32.powi(120);
     let (mut frames, mut zeros, mut ones, mut steep) = (0, 0, 0, 0);
     for &falloff in &[3.0f32, 0.5, 1e-9, -0.5, -3.0] {
         for &(cam_y, pitch) in &[
@@ -1391,7 +1414,7 @@ fn own_kernel_saturation_and_vanishing_terms() {
                     .unwrap();
                 c
             };
-            let (black, white) = (run(0.0), run(big));
+            let (black, white) = (run(0.0), run(BIG));
             let (bt, bl) = batch_reference(&scene, &cam, w, h, &depth, conv);
             for i in 0..n {
                 let ctx = || {
@@ -1401,14 +1424,9 @@ fn own_kernel_saturation_and_vanishing_terms() {
                     )
                 };
                 let l = [0, 1, 2].map(|c| black[c][i]);
-                let t = [0, 1, 2].map(|c| ((white[c][i] as f64 - l[c] as f64) / big as f64) as f32);
+                let t = [0, 1, 2].map(|c| recover_t(white[c][i], l[c]));
                 let ray = cam.pixel_ray(i % w, i / w, w, h, depth[i], conv).unwrap();
-                let r = reference::sample(
-                    &desc,
-                    ray.origin.as_dvec3(),
-                    ray.direction.as_dvec3(),
-                    ray.t as f64,
-                );
+                let (r, _) = check_pixel(&desc, &ray, t, l, ctx);
                 // Δ = b·u·t < −88: where `exp2m1` saturates.
                 let delta = falloff as f64 * ray.direction.y as f64 * ray.t as f64;
                 steep += (delta < -88.1) as usize;
@@ -1434,15 +1452,6 @@ fn own_kernel_saturation_and_vanishing_terms() {
                         bl[i][c],
                         ctx()
                     );
-                }
-                {
-                    let got = FogSample {
-                        tau: Vec3::from_array(r.tau.map(|v| v as f32)),
-                        transmittance: Vec3::from_array(t),
-                        inscattering: Vec3::from_array(l),
-                    };
-                    let chk = check_sample(&desc, ray.origin, ray.direction, ray.t, &got);
-                    assert!(chk.passed(), "{:?}: {}", chk.failure, ctx());
                 }
             }
         }
@@ -1481,7 +1490,6 @@ fn own_kernel_fast_tier_within_its_budget() {
             convention: conv,
         };
         let n = w * h;
-        let big = 2f32.powi(120);
         let (bt, bl) = batch_reference(&scene, &cam, w, h, &depth, conv);
         for (tier, bound, worst) in [
             (Tier::Fast, 1e-4, &mut worst_fast),
@@ -1494,7 +1502,7 @@ fn own_kernel_fast_tier_within_its_budget() {
                     .unwrap();
                 c
             };
-            let (black, white) = (run(0.0), run(big));
+            let (black, white) = (run(0.0), run(BIG));
             for i in 0..n {
                 let ray = cam.pixel_ray(i % w, i / w, w, h, depth[i], conv).unwrap();
                 if ray.t.is_nan() {
@@ -1509,7 +1517,7 @@ fn own_kernel_fast_tier_within_its_budget() {
                 let scale = r.colour.iter().cloned().fold(1e-30, f64::max);
                 for c in 0..3 {
                     let l = black[3 * i + c];
-                    let t = ((white[3 * i + c] as f64 - l as f64) / big as f64) as f32;
+                    let t = recover_t(white[3 * i + c], l);
                     let dt = (t - bt[i][c]).abs() as f64;
                     let dl = (l - bl[i][c]).abs() as f64 / scale;
                     *worst = worst.max(dt).max(dl);
