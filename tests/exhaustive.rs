@@ -105,7 +105,9 @@ impl Errors {
             self.worst = Worst { ulp, x, got, want };
         }
     }
+}
 
+impl Merge for Errors {
     fn merge(mut self, o: Errors) -> Errors {
         self.n += o.n;
         self.over_half += o.over_half;
@@ -114,7 +116,9 @@ impl Errors {
         }
         self
     }
+}
 
+impl Errors {
     fn print(&self, name: &str, domain: &str) {
         let w = &self.worst;
         println!(
@@ -147,7 +151,9 @@ impl Failures {
             }
         }
     }
+}
 
+impl Merge for Failures {
     fn merge(mut self, o: Failures) -> Failures {
         self.count += o.count;
         for f in o.first {
@@ -157,7 +163,9 @@ impl Failures {
         }
         self
     }
+}
 
+impl Failures {
     fn assert_none(&self, name: &str) {
         assert!(
             self.count == 0,
@@ -176,14 +184,29 @@ fn all_f32() -> BitRanges {
     vec![(0, u32::MAX)]
 }
 
+/// A sweep's per-task state: the tasks' states are merged into one at the end.
+trait Merge {
+    fn merge(self, o: Self) -> Self;
+}
+
+/// `Merge` for a state struct: field by field.
+macro_rules! merge_fields {
+    ($t:ident { $($f:ident),+ }) => {
+        impl Merge for $t {
+            fn merge(self, o: $t) -> $t {
+                $t { $($f: self.$f.merge(o.$f)),+ }
+            }
+        }
+    };
+}
+
 /// Runs `f` over every bit pattern in `ranges`, 8 consecutive patterns at a time (the last
 /// group padded by repeating its last value; `f` gets the number of live lanes), in
 /// parallel with rayon, and merges the per-task states.
-fn sweep<S, F, M>(ranges: &BitRanges, merge: M, f: F) -> S
+fn sweep<S, F>(ranges: &BitRanges, f: F) -> S
 where
-    S: Default + Send,
+    S: Default + Send + Merge,
     F: Fn(&mut S, [f32; 8], usize) + Sync,
-    M: Fn(S, S) -> S + Sync + Send,
 {
     let mut tasks = Vec::new();
     for &(lo, hi) in ranges {
@@ -209,7 +232,7 @@ where
             }
             s
         })
-        .reduce(S::default, &merge)
+        .reduce(S::default, S::merge)
 }
 
 /// `f` through the x8 instantiation and lane by lane through the scalar one; records a
@@ -260,47 +283,44 @@ struct ExpState {
     wide_valid: Errors,
     fails: Failures,
 }
+merge_fields!(ExpState {
+    ours,
+    wide_full,
+    wide_valid,
+    fails
+});
 
 #[test]
 #[ignore = "exhaustive sweep: run in release with --ignored"]
 fn exp_exhaustive() {
-    let st: ExpState = sweep(
-        &all_f32(),
-        |a: ExpState, b: ExpState| ExpState {
-            ours: a.ours.merge(b.ours),
-            wide_full: a.wide_full.merge(b.wide_full),
-            wide_valid: a.wide_valid.merge(b.wide_valid),
-            fails: a.fails.merge(b.fails),
-        },
-        |st, xs, live| {
-            let y = x8_and_scalar(xs, live, &mut st.fails, "exp", math::exp, math::exp);
-            let w = f32x8::new(xs).exp().to_array();
-            for l in 0..live {
-                let x = xs[l];
-                if x.is_nan() {
-                    st.fails
-                        .check(y[l].is_nan(), || format!("exp(NaN) = {:e}", y[l]));
-                    continue;
-                }
-                if !(-104.0..=89.0).contains(&x) {
-                    // Outside the domain: saturated exactly (±inf included).
-                    let want = if x > 0.0 { f32::INFINITY } else { 0.0 };
-                    st.fails.check(y[l].to_bits() == want.to_bits(), || {
-                        format!("exp({x:e}) = {:e}, want {want:e}", y[l])
-                    });
-                    continue;
-                }
-                let r = (x as f64).exp();
-                st.ours.record(x, y[l], r, ulp_err(y[l], r));
-                let ew = ulp_err(w[l], r);
-                st.wide_full.record(x, w[l], r, ew);
-                // wide's exp returns 0 for |x| >= 87.3 (and for ±inf and NaN).
-                if x.abs() < 87.3 {
-                    st.wide_valid.record(x, w[l], r, ew);
-                }
+    let st = sweep::<ExpState, _>(&all_f32(), |st, xs, live| {
+        let y = x8_and_scalar(xs, live, &mut st.fails, "exp", math::exp, math::exp);
+        let w = f32x8::new(xs).exp().to_array();
+        for l in 0..live {
+            let x = xs[l];
+            if x.is_nan() {
+                st.fails
+                    .check(y[l].is_nan(), || format!("exp(NaN) = {:e}", y[l]));
+                continue;
             }
-        },
-    );
+            if !(-104.0..=89.0).contains(&x) {
+                // Outside the domain: saturated exactly (±inf included).
+                let want = if x > 0.0 { f32::INFINITY } else { 0.0 };
+                st.fails.check(y[l].to_bits() == want.to_bits(), || {
+                    format!("exp({x:e}) = {:e}, want {want:e}", y[l])
+                });
+                continue;
+            }
+            let r = (x as f64).exp();
+            st.ours.record(x, y[l], r, ulp_err(y[l], r));
+            let ew = ulp_err(w[l], r);
+            st.wide_full.record(x, w[l], r, ew);
+            // wide's exp returns 0 for |x| >= 87.3 (and for ±inf and NaN).
+            if x.abs() < 87.3 {
+                st.wide_valid.record(x, w[l], r, ew);
+            }
+        }
+    });
     println!();
     st.ours.print("math::exp", "[-104, 89]");
     st.wide_full.print("wide f32x8::exp", "[-104, 89]");
@@ -314,46 +334,41 @@ fn exp_exhaustive() {
 // ---------------------------------------------------------------------------------------
 // expm1
 
+/// The state of a sweep with one error domain (expm1, exp2m1, ldexp).
 #[derive(Default)]
-struct Expm1State {
-    ours: Errors,
+struct OneDomain {
+    errors: Errors,
     fails: Failures,
 }
+merge_fields!(OneDomain { errors, fails });
 
 #[test]
 #[ignore = "exhaustive sweep: run in release with --ignored"]
 fn expm1_exhaustive() {
-    let st: Expm1State = sweep(
-        &all_f32(),
-        |a: Expm1State, b: Expm1State| Expm1State {
-            ours: a.ours.merge(b.ours),
-            fails: a.fails.merge(b.fails),
-        },
-        |st, xs, live| {
-            let y = x8_and_scalar(xs, live, &mut st.fails, "expm1", math::expm1, math::expm1);
-            for l in 0..live {
-                let x = xs[l];
-                if x.is_nan() {
-                    st.fails
-                        .check(y[l].is_nan(), || format!("expm1(NaN) = {:e}", y[l]));
-                    continue;
-                }
-                // All of f32, ±inf included (expm1(-inf) = -1, expm1(+inf) = +inf).
-                let r = (x as f64).exp_m1();
-                st.ours.record(x, y[l], r, ulp_err(y[l], r));
-                // Tiny inputs come back exactly (−0 gives +0).
-                if x.abs() < 1e-30 {
-                    st.fails
-                        .check(y[l] == x, || format!("expm1({x:e}) = {:e}, want x", y[l]));
-                }
+    let st = sweep::<OneDomain, _>(&all_f32(), |st, xs, live| {
+        let y = x8_and_scalar(xs, live, &mut st.fails, "expm1", math::expm1, math::expm1);
+        for l in 0..live {
+            let x = xs[l];
+            if x.is_nan() {
+                st.fails
+                    .check(y[l].is_nan(), || format!("expm1(NaN) = {:e}", y[l]));
+                continue;
             }
-        },
-    );
+            // All of f32, ±inf included (expm1(-inf) = -1, expm1(+inf) = +inf).
+            let r = (x as f64).exp_m1();
+            st.errors.record(x, y[l], r, ulp_err(y[l], r));
+            // Tiny inputs come back exactly (−0 gives +0).
+            if x.abs() < 1e-30 {
+                st.fails
+                    .check(y[l] == x, || format!("expm1({x:e}) = {:e}, want x", y[l]));
+            }
+        }
+    });
     println!();
-    st.ours.print("math::expm1", "all f32 (±inf included)");
+    st.errors.print("math::expm1", "all f32 (±inf included)");
     st.fails.assert_none("expm1");
-    assert_eq!(st.ours.n, (1u64 << 32) - 2 * ((1 << 23) - 1));
-    assert_max("expm1", &st.ours, EXPM1_MAX_ULP);
+    assert_eq!(st.errors.n, (1u64 << 32) - 2 * ((1 << 23) - 1));
+    assert_max("expm1", &st.errors, EXPM1_MAX_ULP);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -367,6 +382,11 @@ struct ExpNegState {
     flushed: Errors,
     fails: Failures,
 }
+merge_fields!(ExpNegState {
+    normal,
+    flushed,
+    fails
+});
 
 /// A transmittance-like function (results in [0, 1], flushed to 0 below 2^-126) over the
 /// bit patterns `ranges`: ULP error where the f64 result `want(x)` is at least 2^-126, the
@@ -381,33 +401,25 @@ fn transmittance_sweep(
     want: fn(f64) -> f64,
     bound: f64,
 ) -> u64 {
-    let st: ExpNegState = sweep(
-        ranges,
-        |a: ExpNegState, b: ExpNegState| ExpNegState {
-            normal: a.normal.merge(b.normal),
-            flushed: a.flushed.merge(b.flushed),
-            fails: a.fails.merge(b.fails),
-        },
-        |st, xs, live| {
-            let y = x8_and_scalar(xs, live, &mut st.fails, name, f8, f1);
-            for l in 0..live {
-                let x = xs[l];
-                if x.is_nan() {
-                    st.fails
-                        .check(y[l].is_nan(), || format!("{name}(NaN) = {:e}", y[l]));
-                    continue;
-                }
-                let r = want(x as f64);
-                if r >= f32::MIN_POSITIVE as f64 {
-                    st.normal.record(x, y[l], r, ulp_err(y[l], r));
-                } else {
-                    let abs = (y[l] as f64 - r).abs();
-                    st.flushed
-                        .record(x, y[l], r, abs / f32::MIN_POSITIVE as f64);
-                }
+    let st = sweep::<ExpNegState, _>(ranges, |st, xs, live| {
+        let y = x8_and_scalar(xs, live, &mut st.fails, name, f8, f1);
+        for l in 0..live {
+            let x = xs[l];
+            if x.is_nan() {
+                st.fails
+                    .check(y[l].is_nan(), || format!("{name}(NaN) = {:e}", y[l]));
+                continue;
             }
-        },
-    );
+            let r = want(x as f64);
+            if r >= f32::MIN_POSITIVE as f64 {
+                st.normal.record(x, y[l], r, ulp_err(y[l], r));
+            } else {
+                let abs = (y[l] as f64 - r).abs();
+                st.flushed
+                    .record(x, y[l], r, abs / f32::MIN_POSITIVE as f64);
+            }
+        }
+    });
     println!();
     let label = format!("math::{name}");
     st.normal.print(&label, domains[0]);
@@ -470,53 +482,46 @@ fn exp2_nonpos_exhaustive() {
 #[ignore = "exhaustive sweep: run in release with --ignored"]
 fn exp2m1_exhaustive() {
     let at127 = math::exp2m1(127.0f32);
-    // The state of `expm1`'s sweep: `ours` holds the errors over [-64, 127].
-    let st: Expm1State = sweep(
-        &all_f32(),
-        |a: Expm1State, b: Expm1State| Expm1State {
-            ours: a.ours.merge(b.ours),
-            fails: a.fails.merge(b.fails),
-        },
-        |st, xs, live| {
-            let y = x8_and_scalar(
-                xs,
-                live,
-                &mut st.fails,
-                "exp2m1",
-                math::exp2m1,
-                math::exp2m1,
-            );
-            for l in 0..live {
-                let x = xs[l];
-                if x.is_nan() {
-                    st.fails
-                        .check(y[l].is_nan(), || format!("exp2m1(NaN) = {:e}", y[l]));
-                    continue;
-                }
-                if x < -64.0 {
-                    // 2^x < 2^-64: −1 exactly (what 2^x − 1 rounds to).
-                    st.fails.check(y[l] == -1.0, || {
-                        format!("exp2m1({x:e}) = {:e}, want -1", y[l])
-                    });
-                    continue;
-                }
-                if x > 127.0 {
-                    // Clamped: the value at 127.
-                    st.fails.check(y[l].to_bits() == at127.to_bits(), || {
-                        format!("exp2m1({x:e}) = {:e}, want exp2m1(127)", y[l])
-                    });
-                    continue;
-                }
-                let r = (x as f64 * core::f64::consts::LN_2).exp_m1();
-                st.ours.record(x, y[l], r, ulp_err(y[l], r));
+    // `errors`: over [-64, 127].
+    let st = sweep::<OneDomain, _>(&all_f32(), |st, xs, live| {
+        let y = x8_and_scalar(
+            xs,
+            live,
+            &mut st.fails,
+            "exp2m1",
+            math::exp2m1,
+            math::exp2m1,
+        );
+        for l in 0..live {
+            let x = xs[l];
+            if x.is_nan() {
+                st.fails
+                    .check(y[l].is_nan(), || format!("exp2m1(NaN) = {:e}", y[l]));
+                continue;
             }
-        },
-    );
+            if x < -64.0 {
+                // 2^x < 2^-64: −1 exactly (what 2^x − 1 rounds to).
+                st.fails.check(y[l] == -1.0, || {
+                    format!("exp2m1({x:e}) = {:e}, want -1", y[l])
+                });
+                continue;
+            }
+            if x > 127.0 {
+                // Clamped: the value at 127.
+                st.fails.check(y[l].to_bits() == at127.to_bits(), || {
+                    format!("exp2m1({x:e}) = {:e}, want exp2m1(127)", y[l])
+                });
+                continue;
+            }
+            let r = (x as f64 * core::f64::consts::LN_2).exp_m1();
+            st.errors.record(x, y[l], r, ulp_err(y[l], r));
+        }
+    });
     println!();
-    st.ours.print("math::exp2m1", "[-64, 127]");
+    st.errors.print("math::exp2m1", "[-64, 127]");
     st.fails.assert_none("exp2m1");
     assert_eq!(at127, 2f32.powi(127));
-    assert_max("exp2m1", &st.ours, EXP2M1_MAX_ULP);
+    assert_max("exp2m1", &st.errors, EXP2M1_MAX_ULP);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -530,6 +535,11 @@ struct ExprelState {
     beyond: Errors,
     fails: Failures,
 }
+merge_fields!(ExprelState {
+    domain,
+    beyond,
+    fails
+});
 
 #[test]
 #[ignore = "exhaustive sweep: run in release with --ignored"]
@@ -537,44 +547,36 @@ fn exprel_neg_exhaustive() {
     // Every f32 >= 2^-60, +inf and the positive NaNs.
     let ranges = vec![(2f32.powi(-60).to_bits(), 0x7fff_ffff)];
     let top = 2f32.powi(11);
-    let st: ExprelState = sweep(
-        &ranges,
-        |a: ExprelState, b: ExprelState| ExprelState {
-            domain: a.domain.merge(b.domain),
-            beyond: a.beyond.merge(b.beyond),
-            fails: a.fails.merge(b.fails),
-        },
-        |st, xs, live| {
-            let y = x8_and_scalar(
-                xs,
-                live,
-                &mut st.fails,
-                "exprel_neg",
-                math::exprel_neg,
-                math::exprel_neg,
-            );
-            for l in 0..live {
-                let x = xs[l];
-                if x.is_nan() {
-                    st.fails
-                        .check(y[l].is_nan(), || format!("exprel_neg(NaN) = {:e}", y[l]));
-                    continue;
-                }
-                let xd = x as f64;
-                let r = if x.is_infinite() {
-                    0.0
-                } else {
-                    -(-xd).exp_m1() / xd
-                };
-                let e = ulp_err(y[l], r);
-                if x <= top {
-                    st.domain.record(x, y[l], r, e);
-                } else {
-                    st.beyond.record(x, y[l], r, e);
-                }
+    let st = sweep::<ExprelState, _>(&ranges, |st, xs, live| {
+        let y = x8_and_scalar(
+            xs,
+            live,
+            &mut st.fails,
+            "exprel_neg",
+            math::exprel_neg,
+            math::exprel_neg,
+        );
+        for l in 0..live {
+            let x = xs[l];
+            if x.is_nan() {
+                st.fails
+                    .check(y[l].is_nan(), || format!("exprel_neg(NaN) = {:e}", y[l]));
+                continue;
             }
-        },
-    );
+            let xd = x as f64;
+            let r = if x.is_infinite() {
+                0.0
+            } else {
+                -(-xd).exp_m1() / xd
+            };
+            let e = ulp_err(y[l], r);
+            if x <= top {
+                st.domain.record(x, y[l], r, e);
+            } else {
+                st.beyond.record(x, y[l], r, e);
+            }
+        }
+    });
     println!();
     st.domain.print("math::exprel_neg", "[2^-60, 2^11]");
     st.beyond.print("math::exprel_neg", "(2^11, +inf]");
@@ -619,6 +621,13 @@ struct SplitState {
     m_all: MinMax,
     fails: Failures,
 }
+merge_fields!(SplitState {
+    in_range,
+    beyond,
+    m_709,
+    m_all,
+    fails
+});
 
 #[derive(Clone, Copy)]
 struct MinMax(f32, f32);
@@ -634,6 +643,9 @@ impl MinMax {
         self.0 = self.0.min(v);
         self.1 = self.1.max(v);
     }
+}
+
+impl Merge for MinMax {
     fn merge(self, o: MinMax) -> MinMax {
         MinMax(self.0.min(o.0), self.1.max(o.1))
     }
@@ -642,63 +654,53 @@ impl MinMax {
 #[test]
 #[ignore = "exhaustive sweep: run in release with --ignored"]
 fn exp_split_exhaustive() {
-    let st: SplitState = sweep(
-        &all_f32(),
-        |a: SplitState, b: SplitState| SplitState {
-            in_range: a.in_range.merge(b.in_range),
-            beyond: a.beyond.merge(b.beyond),
-            m_709: a.m_709.merge(b.m_709),
-            m_all: a.m_all.merge(b.m_all),
-            fails: a.fails.merge(b.fails),
-        },
-        |st, xs, live| {
-            let (m8, k8) = math::exp_split(f32x8::new(xs));
-            let (m8, k8) = (m8.to_array(), k8.to_array());
-            for l in 0..live {
-                let x = xs[l];
-                let (m, k) = math::exp_split(x);
-                st.fails.check(
-                    m.to_bits() == m8[l].to_bits() && k.to_bits() == k8[l].to_bits(),
-                    || {
-                        format!(
-                            "exp_split({x:e}): x8 ({:e}, {:e}), scalar ({m:e}, {k:e})",
-                            m8[l], k8[l]
-                        )
-                    },
-                );
-                if x.is_nan() {
-                    st.fails
-                        .check(m.is_nan(), || format!("exp_split(NaN) = ({m:e}, {k:e})"));
-                    continue;
-                }
-                // For every non-NaN input (±inf clamped to ±2^20): m in [0.66, 1.50] and
-                // k an integer no larger than 2^20·log2(e); m in [0.70, 1.42] where
-                // |x| <= 709 (the rounding of x·log2(e) to f32 widens the reduced range
-                // beyond).
-                st.m_all.add(m);
-                st.fails.check(
-                    (0.66..=1.50).contains(&m) && k == k.round() && k.abs() <= 1_512_776.0,
-                    || format!("exp_split({x:e}) = ({m:e}, {k:e}): out of range"),
-                );
-                if (-709.0..=709.0).contains(&x) {
-                    st.m_709.add(m);
-                    st.fails.check((0.70..=1.42).contains(&m), || {
-                        format!("exp_split({x:e}) = ({m:e}, {k:e}): m out of range")
-                    });
-                }
-                if (-708.0..=709.0).contains(&x) {
-                    let r = (x as f64).exp();
-                    let v = m as f64 * pow2(k as i32);
-                    let e = ulp_err_unbounded(v, r);
-                    if (-104.0..=89.0).contains(&x) {
-                        st.in_range.record(x, m, r, e);
-                    } else {
-                        st.beyond.record(x, m, r, e);
-                    }
+    let st = sweep::<SplitState, _>(&all_f32(), |st, xs, live| {
+        let (m8, k8) = math::exp_split(f32x8::new(xs));
+        let (m8, k8) = (m8.to_array(), k8.to_array());
+        for l in 0..live {
+            let x = xs[l];
+            let (m, k) = math::exp_split(x);
+            st.fails.check(
+                m.to_bits() == m8[l].to_bits() && k.to_bits() == k8[l].to_bits(),
+                || {
+                    format!(
+                        "exp_split({x:e}): x8 ({:e}, {:e}), scalar ({m:e}, {k:e})",
+                        m8[l], k8[l]
+                    )
+                },
+            );
+            if x.is_nan() {
+                st.fails
+                    .check(m.is_nan(), || format!("exp_split(NaN) = ({m:e}, {k:e})"));
+                continue;
+            }
+            // For every non-NaN input (±inf clamped to ±2^20): m in [0.66, 1.50] and
+            // k an integer no larger than 2^20·log2(e); m in [0.70, 1.42] where
+            // |x| <= 709 (the rounding of x·log2(e) to f32 widens the reduced range
+            // beyond).
+            st.m_all.add(m);
+            st.fails.check(
+                (0.66..=1.50).contains(&m) && k == k.round() && k.abs() <= 1_512_776.0,
+                || format!("exp_split({x:e}) = ({m:e}, {k:e}): out of range"),
+            );
+            if (-709.0..=709.0).contains(&x) {
+                st.m_709.add(m);
+                st.fails.check((0.70..=1.42).contains(&m), || {
+                    format!("exp_split({x:e}) = ({m:e}, {k:e}): m out of range")
+                });
+            }
+            if (-708.0..=709.0).contains(&x) {
+                let r = (x as f64).exp();
+                let v = m as f64 * pow2(k as i32);
+                let e = ulp_err_unbounded(v, r);
+                if (-104.0..=89.0).contains(&x) {
+                    st.in_range.record(x, m, r, e);
+                } else {
+                    st.beyond.record(x, m, r, e);
                 }
             }
-        },
-    );
+        }
+    });
     println!();
     st.in_range.print("math::exp_split m·2^k", "[-104, 89]");
     st.beyond
@@ -718,7 +720,7 @@ fn exp_split_exhaustive() {
 #[test]
 #[ignore = "exhaustive sweep: run in release with --ignored"]
 fn frexp_exhaustive() {
-    let fails: Failures = sweep(&all_f32(), Failures::merge, |fails, xs, live| {
+    let fails = sweep(&all_f32(), |fails: &mut Failures, xs, live| {
         let (m8, e8) = math::frexp(f32x8::new(xs));
         let (m8, e8) = (m8.to_array(), e8.to_array());
         for l in 0..live {
@@ -813,12 +815,6 @@ fn ldexp_want(m: f32, e: f32) -> (f32, f64) {
     (exact as f32, exact)
 }
 
-#[derive(Default)]
-struct LdexpState {
-    errors: Errors,
-    fails: Failures,
-}
-
 #[test]
 #[ignore = "exhaustive sweep: run in release with --ignored"]
 fn ldexp_sweep() {
@@ -831,37 +827,30 @@ fn ldexp_sweep() {
         (0x8000_0000, 0x8000_0000),
         (lo | 0x8000_0000, hi | 0x8000_0000),
     ];
-    let st: LdexpState = sweep(
-        &ranges,
-        |a: LdexpState, b: LdexpState| LdexpState {
-            errors: a.errors.merge(b.errors),
-            fails: a.fails.merge(b.fails),
-        },
-        |st, ms, live| {
-            // One exponent per m: kind 0 (subnormal results, the only ones that round)
-            // for half of the packets, kinds 1, 2, 3 in turn for the others.
-            let j = (ms[0].to_bits() as u64 / 8) % 6;
-            {
-                let kind = j.saturating_sub(2);
-                let es = ms.map(|m| ldexp_exponent(m, kind));
-                let y8 = math::ldexp(f32x8::new(ms), f32x8::new(es)).to_array();
-                for l in 0..live {
-                    let (m, e) = (ms[l], es[l]);
-                    let y = math::ldexp(m, e);
-                    st.fails.check(y.to_bits() == y8[l].to_bits(), || {
-                        format!("ldexp({m:e}, {e}): x8 {:e}, scalar {y:e}", y8[l])
-                    });
-                    let (c, exact) = ldexp_want(m, e);
-                    st.errors.record(m, y, exact, ulp_err(y, exact));
-                    // One rounding: the correctly rounded result, sign of zero and
-                    // saturation to ±inf / ±0 included.
-                    st.fails.check(y.to_bits() == c.to_bits(), || {
-                        format!("ldexp({m:e}, {e}) = {y:e}, want {c:e}")
-                    });
-                }
+    let st = sweep::<OneDomain, _>(&ranges, |st, ms, live| {
+        // One exponent per m: kind 0 (subnormal results, the only ones that round)
+        // for half of the packets, kinds 1, 2, 3 in turn for the others.
+        let j = (ms[0].to_bits() as u64 / 8) % 6;
+        {
+            let kind = j.saturating_sub(2);
+            let es = ms.map(|m| ldexp_exponent(m, kind));
+            let y8 = math::ldexp(f32x8::new(ms), f32x8::new(es)).to_array();
+            for l in 0..live {
+                let (m, e) = (ms[l], es[l]);
+                let y = math::ldexp(m, e);
+                st.fails.check(y.to_bits() == y8[l].to_bits(), || {
+                    format!("ldexp({m:e}, {e}): x8 {:e}, scalar {y:e}", y8[l])
+                });
+                let (c, exact) = ldexp_want(m, e);
+                st.errors.record(m, y, exact, ulp_err(y, exact));
+                // One rounding: the correctly rounded result, sign of zero and
+                // saturation to ±inf / ±0 included.
+                st.fails.check(y.to_bits() == c.to_bits(), || {
+                    format!("ldexp({m:e}, {e}) = {y:e}, want {c:e}")
+                });
             }
-        },
-    );
+        }
+    });
     println!();
     st.errors
         .print("math::ldexp", "|m| in [2^-62, 2^39], one e each");
@@ -884,7 +873,7 @@ struct RelState {
     fails: Failures,
 }
 
-impl RelState {
+impl Merge for RelState {
     fn merge(self, o: RelState) -> RelState {
         let (worst, at) = if o.worst > self.worst {
             (o.worst, o.at)
@@ -897,6 +886,9 @@ impl RelState {
             fails: self.fails.merge(o.fails),
         }
     }
+}
+
+impl RelState {
     fn record(&mut self, x: f32, got: f64, want: f64) {
         let e = if got == want {
             0.0
@@ -919,79 +911,75 @@ impl RelState {
 fn fast_sweep(step: u64) -> [RelState; 3] {
     let top = 2f32.powi(11);
     let go = |ranges: BitRanges, k: usize| -> RelState {
-        sweep(
-            &ranges,
-            |a: RelState, b: RelState| a.merge(b),
-            |st, xs, live| {
-                if step > 1 && (xs[0].to_bits() as u64 / 8) % step != 0 {
-                    return;
+        sweep(&ranges, |st: &mut RelState, xs, live| {
+            if step > 1 && (xs[0].to_bits() as u64 / 8) % step != 0 {
+                return;
+            }
+            let name = ["exp_neg_fast", "exp_split_fast", "exprel_neg_fast"][k];
+            let y: [f64; 8] = match k {
+                0 => x8_and_scalar(
+                    xs,
+                    live,
+                    &mut st.fails,
+                    name,
+                    math::exp_neg_fast,
+                    math::exp_neg_fast,
+                )
+                .map(|v| v as f64),
+                1 => {
+                    let (m, e) = math::exp_split_fast(f32x8::new(xs));
+                    let (m, e) = (m.to_array(), e.to_array());
+                    let mut out = [0.0; 8];
+                    for l in 0..live {
+                        let (ms, es) = math::exp_split_fast(xs[l]);
+                        st.fails.check(
+                            ms.to_bits() == m[l].to_bits() && es.to_bits() == e[l].to_bits(),
+                            || format!("{name}({:e}): x8 and scalar differ", xs[l]),
+                        );
+                        // Compared in log space: m·2^e with e up to ±2^20.
+                        out[l] = (m[l] as f64).ln() + e[l] as f64 * std::f64::consts::LN_2;
+                    }
+                    out
                 }
-                let name = ["exp_neg_fast", "exp_split_fast", "exprel_neg_fast"][k];
-                let y: [f64; 8] = match k {
-                    0 => x8_and_scalar(
-                        xs,
-                        live,
-                        &mut st.fails,
-                        name,
-                        math::exp_neg_fast,
-                        math::exp_neg_fast,
-                    )
-                    .map(|v| v as f64),
-                    1 => {
-                        let (m, e) = math::exp_split_fast(f32x8::new(xs));
-                        let (m, e) = (m.to_array(), e.to_array());
-                        let mut out = [0.0; 8];
-                        for l in 0..live {
-                            let (ms, es) = math::exp_split_fast(xs[l]);
-                            st.fails.check(
-                                ms.to_bits() == m[l].to_bits() && es.to_bits() == e[l].to_bits(),
-                                || format!("{name}({:e}): x8 and scalar differ", xs[l]),
-                            );
-                            // Compared in log space: m·2^e with e up to ±2^20.
-                            out[l] = (m[l] as f64).ln() + e[l] as f64 * std::f64::consts::LN_2;
-                        }
-                        out
-                    }
-                    _ => x8_and_scalar(
-                        xs,
-                        live,
-                        &mut st.fails,
-                        name,
-                        math::exprel_neg_fast,
-                        math::exprel_neg_fast,
-                    )
-                    .map(|v| v as f64),
-                };
-                for l in 0..live {
-                    let x = xs[l];
-                    if x.is_nan() {
-                        st.fails
-                            .check(y[l].is_nan(), || format!("{name}(NaN) = {:e}", y[l]));
-                        continue;
-                    }
-                    let xd = x as f64;
-                    match k {
-                        0 => {
-                            let r = (-xd).exp();
-                            if r >= f32::MIN_POSITIVE as f64 {
-                                st.record(x, y[l], r);
-                            } else {
-                                st.fails.check(y[l] < 1.2e-38, || {
-                                    format!("{name}({x:e}) = {:e}: not flushed", y[l])
-                                });
-                            }
-                        }
-                        // ln(m·2^e) − x: the relative error of m·2^e is e^(that) − 1.
-                        1 if (-708.0..=709.0).contains(&xd) => {
-                            st.record(x, (y[l] - xd).exp_m1().abs() + 1.0, 1.0)
-                        }
-                        1 => {}
-                        _ if x <= top => st.record(x, y[l], -(-xd).exp_m1() / xd),
-                        _ => {}
-                    }
+                _ => x8_and_scalar(
+                    xs,
+                    live,
+                    &mut st.fails,
+                    name,
+                    math::exprel_neg_fast,
+                    math::exprel_neg_fast,
+                )
+                .map(|v| v as f64),
+            };
+            for l in 0..live {
+                let x = xs[l];
+                if x.is_nan() {
+                    st.fails
+                        .check(y[l].is_nan(), || format!("{name}(NaN) = {:e}", y[l]));
+                    continue;
                 }
-            },
-        )
+                let xd = x as f64;
+                match k {
+                    0 => {
+                        let r = (-xd).exp();
+                        if r >= f32::MIN_POSITIVE as f64 {
+                            st.record(x, y[l], r);
+                        } else {
+                            st.fails.check(y[l] < 1.2e-38, || {
+                                format!("{name}({x:e}) = {:e}: not flushed", y[l])
+                            });
+                        }
+                    }
+                    // ln(m·2^e) − x: the relative error of m·2^e is e^(that) − 1.
+                    1 if (-708.0..=709.0).contains(&xd) => {
+                        st.record(x, (y[l] - xd).exp_m1().abs() + 1.0, 1.0)
+                    }
+                    1 => {}
+                    _ if x <= top => st.record(x, y[l], -(-xd).exp_m1() / xd),
+                    _ => {}
+                }
+            }
+        })
     };
     [
         go(vec![(0, 0x7fff_ffff)], 0),
