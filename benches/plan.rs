@@ -382,7 +382,7 @@ fn nan_guard(u: f32x8, y_s: f32x8, t: f32x8) -> f32x8 {
 /// next (the staged [`hand_grey_y_unit_t`] gives the same bits).
 fn hand_grey_y_unit_t_per_packet(l: &HandLayer, r: &RaySet, tr: &mut [Vec<f32>]) {
     let n = r.t.len();
-    assert!(n % 8 == 0);
+    assert!(n.is_multiple_of(8));
     let (oy, dy, t) = (&r.o[1][..n], &r.d[1][..n], &r.t[..n]);
     let [t0, t1, t2] = tr else { unreachable!() };
     let (t0, t1, t2) = (&mut t0[..n], &mut t1[..n], &mut t2[..n]);
@@ -448,7 +448,7 @@ fn hand_rgb_y_unit_full_per_packet(
     out: &mut [Vec<f32>],
 ) {
     let n = r.t.len();
-    assert!(n % 8 == 0);
+    assert!(n.is_multiple_of(8));
     let (dx, dy, dz) = (&r.d[0][..n], &r.d[1][..n], &r.d[2][..n]);
     let (oy, t) = (&r.o[1][..n], &r.t[..n]);
     let [t0, t1, t2, l0, l1, l2] = out else {
@@ -492,7 +492,7 @@ fn hand_rgb_y_unit_full_per_packet(
 /// (c) packet by packet (see [`hand_grey_general_t`]).
 fn hand_grey_general_t_per_packet(l: &HandLayer, up: [f32; 3], r: &RaySet, tr: &mut [Vec<f32>]) {
     let n = r.t.len();
-    assert!(n % 8 == 0);
+    assert!(n.is_multiple_of(8));
     let (ox, oy, oz) = (&r.o[0][..n], &r.o[1][..n], &r.o[2][..n]);
     let (dx, dy, dz) = (&r.d[0][..n], &r.d[1][..n], &r.d[2][..n]);
     let t = &r.t[..n];
@@ -630,7 +630,7 @@ fn grey_stages_b_to_e(
 /// (a) grey, one layer, up +Y, unit directions, T only (RGB transmittance written).
 fn hand_grey_y_unit_t(l: &HandLayer, r: &RaySet, tr: &mut [Vec<f32>]) {
     let n = r.t.len();
-    assert!(n % 8 == 0);
+    assert!(n.is_multiple_of(8));
     let (oy, dy, t) = (&r.o[1][..n], &r.d[1][..n], &r.t[..n]);
     let [t0, t1, t2] = tr else { unreachable!() };
     let (t0, t1, t2) = (&mut t0[..n], &mut t1[..n], &mut t2[..n]);
@@ -657,7 +657,7 @@ fn hand_grey_y_unit_t(l: &HandLayer, r: &RaySet, tr: &mut [Vec<f32>]) {
 /// (e). τ per channel from one pair of scale factors, as in (b).
 fn hand_rgb_y_unit<const TRANS: bool>(l: &HandLayer, r: &RaySet, out: &mut [Vec<f32>]) {
     let n = r.t.len();
-    assert!(n % 8 == 0);
+    assert!(n.is_multiple_of(8));
     let (oy, dy, t) = (&r.o[1][..n], &r.d[1][..n], &r.t[..n]);
     let [o0, o1, o2] = out else { unreachable!() };
     let (o0, o1, o2) = (&mut o0[..n], &mut o1[..n], &mut o2[..n]);
@@ -706,7 +706,7 @@ fn hand_rgb_y_unit<const TRANS: bool>(l: &HandLayer, r: &RaySet, out: &mut [Vec<
 /// (g ≥ 0) and ambient light.
 fn hand_rgb_y_unit_full(l: &HandLayer, li: &HandLight, r: &RaySet, out: &mut [Vec<f32>]) {
     let n = r.t.len();
-    assert!(n % 8 == 0);
+    assert!(n.is_multiple_of(8));
     let (dx, dy, dz) = (&r.d[0][..n], &r.d[1][..n], &r.d[2][..n]);
     let (oy, t) = (&r.o[1][..n], &r.t[..n]);
     let [t0, t1, t2, l0, l1, l2] = out else {
@@ -774,7 +774,7 @@ fn hand_rgb_y_unit_full(l: &HandLayer, li: &HandLight, r: &RaySet, out: &mut [Ve
 /// (c) grey, one layer, a general up vector (unit, f32), directions of any length, T only.
 fn hand_grey_general_t(l: &HandLayer, up: [f32; 3], r: &RaySet, tr: &mut [Vec<f32>]) {
     let n = r.t.len();
-    assert!(n % 8 == 0);
+    assert!(n.is_multiple_of(8));
     let (ox, oy, oz) = (&r.o[0][..n], &r.o[1][..n], &r.o[2][..n]);
     let (dx, dy, dz) = (&r.d[0][..n], &r.d[1][..n], &r.d[2][..n]);
     let t = &r.t[..n];

@@ -535,7 +535,7 @@ fn late_error_leaves_no_output() {
 fn npy_bytes(major: u8, dict: &str, data: &[u8]) -> Vec<u8> {
     let prelude = if major == 1 { 10 } else { 12 };
     let mut header = dict.as_bytes().to_vec();
-    while (prelude + header.len() + 1) % 64 != 0 {
+    while !(prelude + header.len() + 1).is_multiple_of(64) {
         header.push(b' ');
     }
     header.push(b'\n');

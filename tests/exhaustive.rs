@@ -912,7 +912,7 @@ fn fast_sweep(step: u64) -> [RelState; 3] {
     let top = 2f32.powi(11);
     let go = |ranges: BitRanges, k: usize| -> RelState {
         sweep(&ranges, |st: &mut RelState, xs, live| {
-            if step > 1 && (xs[0].to_bits() as u64 / 8) % step != 0 {
+            if step > 1 && !(xs[0].to_bits() as u64 / 8).is_multiple_of(step) {
                 return;
             }
             let name = ["exp_neg_fast", "exp_split_fast", "exprel_neg_fast"][k];

@@ -1593,7 +1593,7 @@ mod json {
                         e("OutOfRange", f("shape.matrix"), None),
                         Box::new(move |d| {
                             if let Shape::Affine { matrix, .. } = &mut d.volumes[vi].shape {
-                                if sel % 2 == 0 {
+                                if sel.is_multiple_of(2) {
                                     matrix[j] = Vec3::ZERO;
                                 } else {
                                     matrix[j] = matrix[(j + 1) % 3];
@@ -1822,7 +1822,7 @@ proptest! {
         json::check_error(&err, want)?;
         // JSON has no NaN or infinity (serde_json writes null, which an `Option` field
         // reads back as `None`): only finite bad values go through JSON.
-        if want.value.map_or(true, f32::is_finite) {
+        if want.value.is_none_or(f32::is_finite) {
             let text = serde_json::to_string(&bad).expect("serializes");
             let back: SceneDesc = serde_json::from_str(&text)
                 .map_err(|e| TestCaseError::fail(format!("{e}: {text}")))?;

@@ -29,14 +29,14 @@ fn random_scene(r: &mut Rng, extreme: bool) -> SceneDesc {
     ];
     let layers = (0..n)
         .map(|_| {
-            let b = if r.next() % 8 == 0 {
+            let b = if r.next().is_multiple_of(8) {
                 0.0
             } else if extreme {
                 r.sign() * r.log_range(1e-8, 1e3)
             } else {
                 r.sign() * r.log_range(1e-3, 1.0)
             };
-            let grey = r.next() % 3 == 0;
+            let grey = r.next().is_multiple_of(3);
             let comps = (0..1 + r.next() % 2)
                 .map(|_| {
                     let s = r.log_range(1e-4, 0.2) as f32;

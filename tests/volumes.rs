@@ -142,7 +142,7 @@ fn make_ray(s: &Shape, r: &mut Rng) -> (Vec3, Vec3, f32) {
         1 => 0.0,
         _ => size * r.range(-1.5, 3.0),
     };
-    let o = if r.next() % 8 == 0 {
+    let o = if r.next().is_multiple_of(8) {
         target + r.unit() * size * 3.0
     } else {
         target - dir * back
@@ -278,7 +278,7 @@ proptest! {
 /// A cut-out sphere or box overlapping the shape.
 fn cut_near(s: &Shape, r: &mut Rng) -> Shape {
     let (c, size) = shape_point(s, r.in_ball());
-    if r.next() % 2 == 0 {
+    if r.next().is_multiple_of(2) {
         Shape::Sphere {
             center: v3(c),
             radius: (size * r.range(0.1, 0.8)) as f32,

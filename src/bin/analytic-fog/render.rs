@@ -206,7 +206,7 @@ fn cast(
                     let disc = b * b - (q.length_squared() - sp.radius * sp.radius);
                     if disc >= 0.0 {
                         let s = -b - disc.sqrt();
-                        if s > 0.0 && best.map_or(true, |(bs, _, _)| s < bs) {
+                        if s > 0.0 && best.is_none_or(|(bs, _, _)| s < bs) {
                             let n = (q + d * s) / sp.radius;
                             best = Some((s, n, Vec3::from_array(sp.colour)));
                         }
