@@ -84,7 +84,9 @@ fn packet_geometry<L: Lane, const AXIS: usize, const UNIT: bool>(
     p: &PacketIn<L>,
     want_l: bool,
 ) -> (RayGeom<L>, (L, L), [L; 3], Option<[f32; 3]>) {
-    let zero = L::splat(0.0);
+    // Exponents that are known to be 0 are −0.0: x + (−0.0) is x for every x, so the
+    // compiler drops the add (x + 0.0 is not: it turns −0.0 into +0.0).
+    let zero = L::splat(-0.0);
     let one = L::splat(1.0);
     let (norm, dir) = if UNIT {
         ((one, zero), p.d)
@@ -268,7 +270,7 @@ pub(crate) fn single_tau<L: Lane, const KIND: u8>(single: &Single, (gm, ge): (L,
         // One optical depth (and one exponential) for all three channels.
         let s = layer.sigma[0];
         [ldexp(gm * L::splat(s.m), ge + L::splat(s.e)); 3]
-    } else if KIND == 1 {
+    } else if KIND == 1 && !L::NATIVE_SCALE {
         // One pair of scale factors for the three channels (`shared`, the layer's
         // `shared_scale` taken out of its `Option` once per batch).
         let (e, m) = single.shared;

@@ -159,7 +159,7 @@ fn x16_equals_scalar_for_ldexp_and_lane_operations() {
                 0.0
             } else {
                 let mag = f32::from_bits(0x3f80_0000 | (b as u32 & 0x007f_ffff));
-                let e = (b >> 32) as i32 % 48 - 40;
+                let e = ((b >> 32) % 48) as i32 - 40;
                 let v = mag * 2f32.powi(e);
                 if b & (1 << 40) != 0 {
                     -v

@@ -14,6 +14,13 @@ const MIN_NORMAL: f32 = f32::MIN_POSITIVE;
 /// `e = 128` (callers that must see NaN carry it separately).
 #[inline(always)]
 pub fn frexp<L: Lane>(x: L) -> (L, L) {
+    x.frexp()
+}
+
+/// [`frexp`] from the exponent bits: `Lane::frexp`'s generic form (AVX-512 builds use
+/// `vgetexpps`/`vgetmantps` for the vector types, with the same results).
+#[inline(always)]
+pub(crate) fn frexp_bits<L: Lane>(x: L) -> (L, L) {
     let tiny = x.abs().lt(L::splat(MIN_NORMAL));
     let xs = L::select(tiny, x * L::splat(TWO24), x);
     let e = xs.exponent_field() - L::select(tiny, L::splat(127.0 + 24.0), L::splat(127.0));

@@ -83,6 +83,21 @@ pub trait Lane:
     fn clamp(self, lo: Self, hi: Self) -> Self {
         lo.max(hi.min(self))
     }
+
+    /// True where `scale2` is one instruction (AVX-512 `vscalefps`): callers then scale
+    /// each channel on its own instead of sharing a [`super::pow2_pair`].
+    const NATIVE_SCALE: bool = false;
+    /// [`super::frexp`]: `(m, e)` with `self = m · 2^e`, `|m|` in [1, 2).
+    #[inline(always)]
+    fn frexp(self) -> (Self, Self) {
+        super::frexp::frexp_bits(self)
+    }
+    /// [`super::ldexp`]: `self · 2^e` rounded once, saturating.
+    #[inline(always)]
+    fn scale2(self, e: Self) -> Self {
+        let (s1, s2) = super::pow2_pair(e);
+        self * s1 * s2
+    }
 }
 
 /// 1.5 * 2^23: adding it to an integer-valued float in [-2^22, 2^22] leaves the integer
@@ -229,7 +244,7 @@ impl Lane for f32 {
 }
 
 macro_rules! impl_lane_wide {
-    ($mod:ident, $F:ty, $I:ty, $N:expr) => {
+    ($mod:ident, $F:ty, $I:ty, $N:expr, { $($avx:tt)* }) => {
         mod $mod {
             use super::*;
             #[inline(always)]
@@ -349,10 +364,112 @@ macro_rules! impl_lane_wide {
                             | <$I>::splat(0x3f80_0000),
                     )
                 }
+                $($avx)*
             }
         }
     };
 }
 
-impl_lane_wide!(lane_x8, f32x8, i32x8, 8);
-impl_lane_wide!(lane_x16, f32x16, i32x16, 16);
+// The AVX-512 overrides (module `avx512` below) where the build enables it; the trait's
+// generic forms elsewhere.
+impl_lane_wide! { lane_x8, f32x8, i32x8, 8, {
+    #[cfg(all(target_feature = "avx512f", target_feature = "avx512vl"))]
+    const NATIVE_SCALE: bool = true;
+    #[cfg(all(target_feature = "avx512f", target_feature = "avx512vl"))]
+    #[inline(always)]
+    fn frexp(self) -> (Self, Self) {
+        super::avx512::x8::frexp(self)
+    }
+    #[cfg(all(target_feature = "avx512f", target_feature = "avx512vl"))]
+    #[inline(always)]
+    fn scale2(self, e: Self) -> Self {
+        super::avx512::x8::scalef(self, e)
+    }
+} }
+impl_lane_wide! { lane_x16, f32x16, i32x16, 16, {
+    #[cfg(target_feature = "avx512f")]
+    const NATIVE_SCALE: bool = true;
+    #[cfg(target_feature = "avx512f")]
+    #[inline(always)]
+    fn frexp(self) -> (Self, Self) {
+        super::avx512::x16::frexp(self)
+    }
+    #[cfg(target_feature = "avx512f")]
+    #[inline(always)]
+    fn scale2(self, e: Self) -> Self {
+        super::avx512::x16::scalef(self, e)
+    }
+} }
+
+/// AVX-512 forms of two `Lane` methods: `frexp` by `vgetexpps`/`vgetmantps` (5
+/// instructions with the fix-ups, against 12), `scale2` (ldexp) by `vscalefps` (1, against
+/// 8). Same results as the generic forms (NaN payloads aside) within their preconditions:
+/// both are exact or round once, and the fix-ups give the generic `frexp`'s values for
+/// 0 and ±inf. `tests/lanes16.rs` and the kernels' bit-for-bit tests check it in the
+/// x86-64-v4 build (`.ci/run`).
+///
+/// The only `unsafe` in the crate: calling an intrinsic needs it unless the caller is a
+/// `#[target_feature]` function, which a trait method cannot be. Sound because the module
+/// exists only where the build enables the features for the whole crate, so no code of
+/// the crate runs on a CPU without them.
+#[cfg(target_feature = "avx512f")]
+#[allow(unsafe_code)]
+mod avx512 {
+    use core::arch::x86_64::*;
+
+    macro_rules! width {
+        ($name:ident, $F:ty, $R:ty, $getexp:ident, $getmant:ident, $scalef:ident
+         $(, $cfg:meta)?) => {
+            $(#[$cfg])?
+            pub(super) mod $name {
+                use super::*;
+                type F = $F;
+
+                /// `frexp`: getexp gives −inf for ±0 and +inf for ±inf, getmant ±1 for
+                /// ±0 and NaN for NaN; the generic form gives (+0, −151), (±1, 128) and
+                /// for NaN the finite `with_unit_exponent` of its bits.
+                #[inline(always)]
+                pub(crate) fn frexp(x: F) -> (F, F) {
+                    let a: $R = x.into();
+                    // SAFETY: see the module documentation.
+                    let (e, m) = unsafe {
+                        (
+                            $getexp(a),
+                            $getmant::<_MM_MANT_NORM_1_2, _MM_MANT_SIGN_SRC>(a),
+                        )
+                    };
+                    let (e, m): (F, F) = (e.into(), m.into());
+                    let zero = x.simd_eq(F::splat(0.0));
+                    let e = zero.select(F::splat(-151.0), e.fast_min(F::splat(128.0)));
+                    let m = x.is_nan().select(super::super::Lane::with_unit_exponent(x), m);
+                    (zero.select(F::splat(0.0), m), e)
+                }
+
+                /// `x · 2^e`, rounded once, saturating (`ldexp`).
+                #[inline(always)]
+                pub(crate) fn scalef(x: F, e: F) -> F {
+                    // SAFETY: see the module documentation.
+                    unsafe { $scalef(x.into(), e.into()) }.into()
+                }
+            }
+        };
+    }
+
+    width!(
+        x16,
+        wide::f32x16,
+        __m512,
+        _mm512_getexp_ps,
+        _mm512_getmant_ps,
+        _mm512_scalef_ps
+    );
+    width!(
+        x8,
+        wide::f32x8,
+        __m256,
+        _mm256_getexp_ps,
+        _mm256_getmant_ps,
+        _mm256_scalef_ps,
+        cfg(target_feature = "avx512vl")
+    );
+}

@@ -28,6 +28,6 @@ pub fn pow2_pair<L: Lane>(e: L) -> (L, L) {
 /// round to zero (|m| · 2^-190 < 2^-150).
 #[inline(always)]
 pub fn ldexp<L: Lane>(m: L, e: L) -> L {
-    let (s1, s2) = pow2_pair(e);
-    m * s1 * s2
+    // `m * s1 * s2` from `pow2_pair`, or one `vscalefps` (same result) in AVX-512 builds.
+    m.scale2(e)
 }

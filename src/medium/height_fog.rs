@@ -223,8 +223,13 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
     // Below 2^-60, φ = 1 in f32; clamping there (not lower) keeps every intermediate of
     // `exprel_neg` normal, so tiny falloffs run as fast as typical ones (subnormal
     // arithmetic has a penalty on many CPUs).
-    let dc = (dm.abs() * L::pow2i(de.clamp(L::splat(-100.0), L::splat(PHI_MAX_EXP))))
-        .max(L::splat(8.673_617e-19)); // 2^-60
+    let dc = if L::NATIVE_SCALE {
+        // The same values: below 2^-100 both end at the max.
+        dm.abs().scale2(de.min(L::splat(PHI_MAX_EXP)))
+    } else {
+        dm.abs() * L::pow2i(de.clamp(L::splat(-100.0), L::splat(PHI_MAX_EXP)))
+    }
+    .max(L::splat(8.673_617e-19)); // 2^-60
     let phi_e = (L::splat(PHI_MAX_EXP) - de).min(L::splat(0.0));
 
     // The exponent at the denser end, u_min = b·y0 + min(Δ, 0), summed in units of 2^-64
@@ -243,7 +248,12 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
     } else {
         (L::splat(layer.b * TWO_M64) * (g.y - L::splat(layer.h0))).min(L::splat(1.7e38))
     };
-    let ds = dm * L::pow2i((de - L::splat(64.0)).clamp(L::splat(-126.0), L::splat(127.0)));
+    let ds_e = (de - L::splat(64.0)).clamp(L::splat(-126.0), L::splat(127.0));
+    let ds = if L::NATIVE_SCALE {
+        dm.scale2(ds_e)
+    } else {
+        dm * L::pow2i(ds_e)
+    };
     let u_min = (a0s + ds.min(L::splat(0.0))) * L::splat(TWO64);
     DepthArgs {
         dc,
