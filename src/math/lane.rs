@@ -401,11 +401,11 @@ impl_lane_wide! { lane_x16, f32x16, i32x16, 16, {
     }
 } }
 
-/// AVX-512 forms of two `Lane` methods: `frexp` by `vgetexpps`/`vgetmantps` (5
-/// instructions with the fix-ups, against 12), `scale2` (ldexp) by `vscalefps` (1, against
-/// 8). Same results as the generic forms (NaN payloads aside) within their preconditions:
+/// AVX-512 forms of two `Lane` methods: `frexp` by `vgetexpps`/`vgetmantps` (9
+/// instructions with the fix-ups for 0, ±inf and NaN, against about 12), `scale2` (ldexp)
+/// by `vscalefps` (1, against 11). Same results as the generic forms (NaN payloads aside) within their preconditions:
 /// both are exact or round once, and the fix-ups give the generic `frexp`'s values for
-/// 0 and ±inf. `tests/lanes16.rs` and the kernels' bit-for-bit tests check it in the
+/// 0, ±inf and NaN. `tests/lanes16.rs` and the kernels' bit-for-bit tests check it in the
 /// x86-64-v4 build (`.ci/run`).
 ///
 /// The only `unsafe` in the crate: calling an intrinsic needs it unless the caller is a
