@@ -132,6 +132,26 @@ fn x16_equals_scalar_for_every_special_function() {
         ("exp_split", two!(math::exp_split)),
         ("exp_split_fast", two!(math::exp_split_fast)),
         ("frexp", two!(math::frexp)),
+        // Specified for finite lanes only: the other lanes are compared with themselves.
+        (
+            "frexp_finite",
+            mismatches(
+                "frexp_finite",
+                |x| {
+                    let (a, b) = x.frexp_finite();
+                    [a, b]
+                },
+                |x| {
+                    let (a, b) = if x.is_finite() {
+                        math::frexp(x)
+                    } else {
+                        let (a, b) = f32x16::splat(x).frexp_finite();
+                        (a.to_array()[0], b.to_array()[0])
+                    };
+                    [a, b]
+                },
+            ),
+        ),
         // Ties to even (wide 1's `f32x16::round` rounds ties away from zero).
         ("round", one!(Lane::round)),
         ("sqrt", one!(Lane::sqrt)),

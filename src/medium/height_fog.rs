@@ -31,7 +31,7 @@
 //! that, whether τ saturates to +∞ or to 0 may be wrong (both terms of the dense-end
 //! exponent are beyond the scaled f32 range).
 
-use crate::math::{exp_split, exp_split_fast, exprel_neg, exprel_neg_fast, frexp, Lane};
+use crate::math::{exp_split, exp_split_fast, exprel_neg, exprel_neg_fast, Lane};
 use crate::scene::LayerCore;
 
 /// Per-ray quantities shared by all layers.
@@ -80,10 +80,12 @@ impl<L: Lane> RayGeom<L> {
     /// `t`: segment end; `norm`: (n_m, n_e) of |d|.
     #[inline(always)]
     pub(crate) fn new(y: L, y_s: L, u: L, u_shift: L, t: L, norm: (L, L)) -> RayGeom<L> {
-        let (u_m, u_e) = frexp(u);
+        // `frexp_finite`: the guard below makes every output of a ray with a non-finite u
+        // or t NaN, and t = +∞ gets its own exponent.
+        let (u_m, u_e) = u.frexp_finite();
         let u_e = u_e + u_shift;
         let u_e = L::select(u.eq(L::splat(0.0)), L::splat(U_ZERO_EXPONENT), u_e);
-        let (t_m, t_e) = frexp(t);
+        let (t_m, t_e) = t.frexp_finite();
         let t_e = L::select(t.eq(L::splat(f32::INFINITY)), L::splat(INF_EXPONENT), t_e);
         // u - u is NaN exactly when u is not finite, y_s - y_s when the origin's height is
         // not (NaN or ±inf in a component of o that the height reads; y_s cannot overflow
