@@ -152,8 +152,10 @@ pub(crate) fn layer_depth<L: Lane, const FAST: bool>(layer: &LayerCore, g: &RayG
 pub(crate) struct DepthArgs<L> {
     /// |Δ| clamped to [2^-60, 2^11), the argument of φ.
     dc: L,
-    /// The exponent at the denser end, u_min (e^(−u_min) is the density there).
-    u_min: L,
+    /// Minus the exponent at the denser end, −u_min (e^(−u_min) is the density there),
+    /// negated where it is formed (× −2^64), which is exact, so that `exp_split` needs no
+    /// negation.
+    neg_u_min: L,
     /// n_m · t_m.
     m: L,
     /// n_e + t_e + the exponent of φ's remainder (n_e + t_e for a homogeneous layer).
@@ -168,7 +170,7 @@ impl<L: Lane> DepthArgs<L> {
         let z = L::splat(0.0);
         DepthArgs {
             dc: z,
-            u_min: z,
+            neg_u_min: z,
             m: z,
             e: z,
             guard: z,
@@ -211,7 +213,7 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
         // Homogeneous layer: G = |d| · t.
         return DepthArgs {
             dc: zero,
-            u_min: zero,
+            neg_u_min: zero,
             m: g.n_m * g.t_m,
             e: g.n_e + g.t_e,
             guard: g.guard,
@@ -250,16 +252,20 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
     } else {
         (L::splat(layer.b * TWO_M64) * (g.y - L::splat(layer.h0))).min(L::splat(1.7e38))
     };
-    let ds_e = (de - L::splat(64.0)).clamp(L::splat(-126.0), L::splat(127.0));
+    // Δ·2^-64. `pow2i` needs its exponent clamped; `scale2` saturates by itself, and the
+    // unclamped value gives the same bits: beyond 2^127 a negative Δ·2^-64 outweighs
+    // any a0s (≤ 1.7e38) by more than 2^-64·f32::MAX, so u_min is −∞ either way, and
+    // below 2^-126 it changes a0s only where |a0s| < 2^-99, where e^(−u_min) rounds to 1
+    // either way.
     let ds = if L::NATIVE_SCALE {
-        dm.scale2(ds_e)
+        dm.scale2(de - L::splat(64.0))
     } else {
-        dm * L::pow2i(ds_e)
+        dm * L::pow2i((de - L::splat(64.0)).clamp(L::splat(-126.0), L::splat(127.0)))
     };
-    let u_min = (a0s + ds.min(L::splat(0.0))) * L::splat(TWO64);
+    let neg_u_min = (a0s + ds.min(L::splat(0.0))) * L::splat(-TWO64);
     DepthArgs {
         dc,
-        u_min,
+        neg_u_min,
         m: g.n_m * g.t_m,
         e: g.n_e + g.t_e + phi_e,
         guard: g.guard,
@@ -306,9 +312,9 @@ pub(crate) fn depth_with_of<L: Lane, const FAST: bool, const HOMOGENEOUS: bool>(
         return (a.m + a.guard, a.e);
     }
     let (em, ek) = if FAST {
-        exp_split_fast(a.u_min.neg())
+        exp_split_fast(a.neg_u_min)
     } else {
-        exp_split(a.u_min.neg())
+        exp_split(a.neg_u_min)
     };
     (a.m * phi * em + a.guard, a.e + ek)
 }
