@@ -81,9 +81,9 @@
 //! (`wide::f32x16`), with the same bits; the binary
 //! then needs AVX-512 to run. [`simd_level`] reports what was compiled in.
 //!
-//! The crate has one `unsafe` block, in `math::lane`'s AVX-512 module (compiled only
-//! where the build enables AVX-512F): the calls of `vgetexpps`, `vgetmantps` and
-//! `vscalefps`, which `wide` does not expose.
+//! The crate's only `unsafe` code is in `math::lane`'s AVX-512 module (compiled only
+//! where the build enables AVX-512F): three blocks that call `vgetexpps`, `vgetmantps`
+//! and `vscalefps`, which `wide` does not expose.
 
 #![deny(unsafe_code)]
 // Channel loops index several parallel [_; 3] arrays; coefficients are written with all
