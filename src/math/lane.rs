@@ -442,28 +442,9 @@ mod avx512 {
                 use super::*;
                 type F = $F;
 
-                /// `frexp`: getexp gives −inf for ±0 and +inf for ±inf, getmant ±1 for
-                /// ±0 and NaN for NaN; the generic form gives (+0, −151), (±1, 128) and
-                /// for NaN the finite `with_unit_exponent` of its bits.
-                #[inline(always)]
-                pub(crate) fn frexp(x: F) -> (F, F) {
-                    let a: $R = x.into();
-                    // SAFETY: see the module documentation.
-                    let (e, m) = unsafe {
-                        (
-                            $getexp(a),
-                            $getmant::<_MM_MANT_NORM_1_2, _MM_MANT_SIGN_SRC>(a),
-                        )
-                    };
-                    let (e, m): (F, F) = (e.into(), m.into());
-                    let zero = x.simd_eq(F::splat(0.0));
-                    let e = zero.select(F::splat(-151.0), e.fast_min(F::splat(128.0)));
-                    let m = x.is_nan().select(super::super::Lane::with_unit_exponent(x), m);
-                    (zero.select(F::splat(0.0), m), e)
-                }
-
-                /// `frexp` for finite lanes only (±inf and NaN lanes give getexp's and
-                /// getmant's values, which the caller replaces).
+                /// `frexp` for finite lanes only: getexp gives −inf for ±0, getmant ±1,
+                /// so zero is mended to the generic form's (+0, −151); ±inf and NaN
+                /// lanes keep getexp's and getmant's values, which the caller replaces.
                 #[inline(always)]
                 pub(crate) fn frexp_finite(x: F) -> (F, F) {
                     let a: $R = x.into();
@@ -477,6 +458,18 @@ mod avx512 {
                     let (e, m): (F, F) = (e.into(), m.into());
                     let zero = x.simd_eq(F::splat(0.0));
                     (zero.select(F::splat(0.0), m), zero.select(F::splat(-151.0), e))
+                }
+
+                /// `frexp`: [`frexp_finite`] with ±inf and NaN mended to the generic
+                /// form's (±1, 128) and (the finite `with_unit_exponent` of its bits,
+                /// 128). getexp gives +inf for ±inf and NaN for NaN, and `fast_min`
+                /// (`minps`) returns its second operand, 128, for both; getmant gives ±1
+                /// for ±inf.
+                #[inline(always)]
+                pub(crate) fn frexp(x: F) -> (F, F) {
+                    let (m, e) = frexp_finite(x);
+                    let m = x.is_nan().select(super::super::Lane::with_unit_exponent(x), m);
+                    (m, e.fast_min(F::splat(128.0)))
                 }
 
                 /// `x · 2^e`, rounded once, saturating (`ldexp`).
