@@ -82,7 +82,7 @@
 //! then needs AVX-512 to run. [`simd_level`] reports what was compiled in.
 //!
 //! The crate's only `unsafe` code is in `math::lane`'s AVX-512 module (compiled only
-//! where the build enables AVX-512F): three blocks that call `vgetexpps`, `vgetmantps`
+//! where the build enables AVX-512F): two blocks that call `vgetexpps`, `vgetmantps`
 //! and `vscalefps`, which `wide` does not expose.
 
 #![deny(unsafe_code)]
