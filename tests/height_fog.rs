@@ -9,6 +9,8 @@
 //!   f32 bit patterns;
 //! - the reference's closed forms against numerical quadrature of the integrals;
 //! - the invariants (no NaN, τ ≥ 0, 0 ≤ T ≤ 1, L_in finite and ≥ 0) for every finite input.
+//! - on the C peer's two data sets, max |T − T_f64| (the peer's own measure) at most 1.2e-7
+//!   for every path, below the fast-math peer's 1.71e-7 to 1.88e-7.
 //!
 //! `PROPTEST_CASES=10000 cargo test --release --test height_fog` for a longer run.
 #![allow(
@@ -700,6 +702,92 @@ proptest! {
                     );
                 }
             }
+        }
+    }
+}
+
+/// The C peer's data sets (`../shared/peers/c-libmvec/height_fog.c`: the same xorshift
+/// generator and seed, typical and extreme) and its accuracy measure: max |T − T_f64| over
+/// the 64K rays, T_f64 the same closed form evaluated in f64 from the same f32 inputs.
+/// The peer with fast-math measures 1.88e-7 (typical) and 1.71e-7 (extreme) on its red
+/// channel; the README states this crate's 9.93e-8 and 1.01e-7 (1.02e-7 over RGB) and
+/// calls that better accuracy, so this holds every path to 1.2e-7 on all three channels.
+#[test]
+fn peer_data_sets_accuracy() {
+    const B: f32 = 0.1;
+    const BETA: [f32; 3] = [0.02, 0.03, 0.05];
+    let n = 65536;
+    let scene = Scene::new(SceneDesc {
+        height_fog: vec![HeightFogLayer {
+            base_height: 0.0,
+            falloff: B,
+            emission: Vec3::ZERO,
+            components: vec![Component {
+                scattering: Vec3::from_array(BETA),
+                absorption: Vec3::ZERO,
+                phase: Phase::Isotropic,
+            }],
+        }],
+        ..SceneDesc::default()
+    })
+    .unwrap();
+    let mut s: u64 = 88172645463325252;
+    let mut uni = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        ((s >> 40) as f64 * (1.0 / 16777216.0)) as f32
+    };
+    for extreme in [false, true] {
+        let (mut oy, mut dy, mut t) = (vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]);
+        for i in 0..n {
+            let y = uni() * 10.0;
+            let (mut u, mut d) = (uni() * 2.0 - 1.0, uni() * 1000.0);
+            if extreme && (i & 7) == 0 {
+                u = (uni() * 2.0 - 1.0) * 1e-6;
+                d = uni() * 1e7;
+            }
+            if !extreme && u < 0.0 && -y / u < d {
+                d = -y / u;
+            }
+            (oy[i], dy[i], t[i]) = (y, u, d);
+        }
+        // The directions (0, dy, 0) are not unit; declared unit, the kernel takes |d| = 1
+        // as the peer's formula does.
+        let z = vec![0.0f32; n];
+        let rays = Rays::new(&z, &oy, &z, &z, &dy, &z, &t)
+            .unwrap()
+            .with_unit_directions(true);
+        type Eval = fn(&Scene, &Rays<'_>, Outputs<'_>) -> Result<(), analytic_fog::BatchError>;
+        let paths: [(&str, Eval); 3] = [
+            ("x8", Scene::evaluate),
+            ("scalar", Scene::evaluate_scalar),
+            ("rayon", Scene::evaluate_par),
+        ];
+        for (name, eval) in paths {
+            let mut tr = [vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]];
+            let [a, b, c] = &mut tr;
+            let out = Outputs {
+                tau: None,
+                transmittance: Some([a, b, c]),
+                inscattering: None,
+            };
+            eval(&scene, &rays, out).unwrap();
+            let mut worst = 0.0f64;
+            for i in 0..n {
+                let x = f64::from(B) * f64::from(dy[i]) * f64::from(t[i]);
+                let phi = if x != 0.0 { -(-x).exp_m1() / x } else { 1.0 };
+                let geo = (-f64::from(B) * f64::from(oy[i])).exp() * f64::from(t[i]) * phi;
+                for ch in 0..3 {
+                    let want = (-geo * f64::from(BETA[ch])).exp();
+                    worst = worst.max((f64::from(tr[ch][i]) - want).abs());
+                }
+            }
+            assert!(
+                worst <= 1.2e-7,
+                "{name}, {}: max |T - T_f64| = {worst:e}",
+                if extreme { "extreme" } else { "typical" }
+            );
         }
     }
 }
