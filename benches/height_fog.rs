@@ -7,6 +7,7 @@
 //! `cargo bench --bench height_fog -- transmittance_rgb`.
 //! Set `FOG_BENCH_STREAM=0` to skip the 16M-ray groups.
 
+use analytic_fog::reference::peer::PeerRays;
 use analytic_fog::{
     Component, HeightFogLayer, Lighting, Outputs, Phase, Rays, Scene, SceneDesc, Sun, Tier,
 };
@@ -26,39 +27,16 @@ pub struct RaySet {
     pub t: Vec<f32>,
 }
 
-/// The C peer's xorshift generator and data sets, reproduced exactly (the peer only
-/// uses oy, dy and t; ox = oz = 0 and dx = sqrt(1 - dy^2), dz = 0 make the same rays unit
-/// length in 3-D).
+/// The C peer's data sets (`analytic_fog::reference::peer`; the peer only uses oy, dy and
+/// t; ox = oz = 0 and dx = sqrt(1 - dy^2), dz = 0 make the same rays unit length in 3-D).
 pub fn make(n: usize, extreme: bool) -> RaySet {
-    let mut s: u64 = 88172645463325252;
-    let mut uni = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        ((s >> 40) as f64 * (1.0 / 16777216.0)) as f32
-    };
-    let mut r = RaySet {
-        o: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
-        d: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
-        t: vec![0.0; n],
-    };
-    for i in 0..n {
-        let y = uni() * 10.0;
-        let mut u = uni() * 2.0 - 1.0;
-        let mut d = uni() * 1000.0;
-        if extreme && (i & 7) == 0 {
-            u = (uni() * 2.0 - 1.0) * 1e-6;
-            d = uni() * 1e7;
-        }
-        if !extreme && u < 0.0 && -y / u < d {
-            d = -y / u;
-        }
-        r.o[1][i] = y;
-        r.d[1][i] = u;
-        r.d[0][i] = (1.0 - u * u).max(0.0).sqrt();
-        r.t[i] = d;
+    let p = PeerRays::new(n, extreme);
+    let z = vec![0.0; n];
+    RaySet {
+        o: [z.clone(), p.oy.clone(), z.clone()],
+        d: [p.dx(), p.dy, z],
+        t: p.t,
     }
-    r
 }
 
 fn scene(full: bool) -> Scene {

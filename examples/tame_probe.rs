@@ -11,6 +11,7 @@
 //! `cargo run --release --example tame_probe [typical|extreme]` (and the same with
 //! `CARGO_TARGET_DIR=target/v4 RUSTFLAGS="-C target-cpu=x86-64-v4"`); README "Speed".
 use analytic_fog::math::{exp2_nonpos, exp_neg, exp_split, exprel_neg, Lane};
+use analytic_fog::reference::peer::{PeerRays, BETA, FALLOFF};
 use analytic_fog::{Component, HeightFogLayer, Outputs, Phase, Rays, Scene, SceneDesc};
 use glam::Vec3;
 #[cfg(target_feature = "avx512f")]
@@ -99,37 +100,16 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let extreme = args.get(1).map(String::as_str) == Some("extreme");
     let n = 65536;
-    let mut st: u64 = 88172645463325252;
-    let mut uni = move || {
-        st ^= st << 13;
-        st ^= st >> 7;
-        st ^= st << 17;
-        ((st >> 40) as f64 * (1.0 / 16777216.0)) as f32
-    };
-    let (mut oy, mut dy, mut t) = (vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]);
-    for i in 0..n {
-        let y = uni() * 10.0;
-        let mut u = uni() * 2.0 - 1.0;
-        let mut d = uni() * 1000.0;
-        if extreme && (i & 7) == 0 {
-            u = (uni() * 2.0 - 1.0) * 1e-6;
-            d = uni() * 1e7;
-        }
-        if !extreme && u < 0.0 && -y / u < d {
-            d = -y / u;
-        }
-        oy[i] = y;
-        dy[i] = u;
-        t[i] = d;
-    }
+    let peer = PeerRays::new(n, extreme);
+    let (oy, dy, t) = (&peer.oy, &peer.dy, &peer.t);
     let z = vec![0.0f32; n];
     let scene = Scene::new(SceneDesc {
         height_fog: vec![HeightFogLayer {
             base_height: 0.0,
-            falloff: 0.1,
+            falloff: FALLOFF,
             emission: Vec3::ZERO,
             components: vec![Component {
-                scattering: Vec3::new(0.02, 0.03, 0.05),
+                scattering: Vec3::from_array(BETA),
                 absorption: Vec3::ZERO,
                 phase: Phase::Isotropic,
             }],
@@ -137,7 +117,7 @@ fn main() {
         ..SceneDesc::default()
     })
     .unwrap();
-    let rays = Rays::new(&z, &oy, &z, &z, &dy, &z, &t)
+    let rays = Rays::new(&z, oy, &z, &z, dy, &z, t)
         .unwrap()
         .with_unit_directions(true);
     let mut a: Vec<Vec<f32>> = (0..3).map(|_| vec![0.0f32; n]).collect();
@@ -167,9 +147,9 @@ fn main() {
         };
         let t0 = std::time::Instant::now();
         bad = if exp2 {
-            tame::<true>(&oy, &dy, &t, [x, y, w], 0.1, 0.0, [0.02, 0.03, 0.05])
+            tame::<true>(oy, dy, t, [x, y, w], FALLOFF, 0.0, BETA)
         } else {
-            tame::<false>(&oy, &dy, &t, [x, y, w], 0.1, 0.0, [0.02, 0.03, 0.05])
+            tame::<false>(oy, dy, t, [x, y, w], FALLOFF, 0.0, BETA)
         };
         best_b = best_b.min(t0.elapsed().as_secs_f64());
     }
@@ -182,17 +162,8 @@ fn main() {
         }
     }
     let blocks = n / (W::LANES * BLOCK);
-    let (mut ea, mut eb) = (0.0f64, 0.0f64);
-    for i in 0..n {
-        let x = f64::from(0.1f32) * f64::from(dy[i]) * f64::from(t[i]);
-        let phi = if x != 0.0 { -(-x).exp_m1() / x } else { 1.0 };
-        let geo = (-f64::from(0.1f32) * f64::from(oy[i])).exp() * f64::from(t[i]) * phi;
-        for (c, bc) in [0.02f32, 0.03, 0.05].into_iter().enumerate() {
-            let r = (-geo * f64::from(bc)).exp();
-            ea = ea.max((f64::from(a[c][i]) - r).abs());
-            eb = eb.max((f64::from(bb[c][i]) - r).abs());
-        }
-    }
+    let (_, ea) = peer.max_trans_error([&a[0], &a[1], &a[2]]);
+    let (_, eb) = peer.max_trans_error([&bb[0], &bb[1], &bb[2]]);
     println!("max|dT| RGB: general {ea:.3e}, probe {eb:.3e}");
     println!(
         "{}: general {:.3} ns/ray, tame {:.3} ns/ray ({:.2}x); bit diffs {diff}; untame blocks {bad}/{blocks}",

@@ -714,13 +714,12 @@ proptest! {
 /// calls that better accuracy, so this holds every path to 1.2e-7 on all three channels.
 #[test]
 fn peer_data_sets_accuracy() {
-    const B: f32 = 0.1;
-    const BETA: [f32; 3] = [0.02, 0.03, 0.05];
+    use analytic_fog::reference::peer::{PeerRays, BETA, FALLOFF};
     let n = 65536;
     let scene = Scene::new(SceneDesc {
         height_fog: vec![HeightFogLayer {
             base_height: 0.0,
-            falloff: B,
+            falloff: FALLOFF,
             emission: Vec3::ZERO,
             components: vec![Component {
                 scattering: Vec3::from_array(BETA),
@@ -731,31 +730,12 @@ fn peer_data_sets_accuracy() {
         ..SceneDesc::default()
     })
     .unwrap();
-    let mut s: u64 = 88172645463325252;
-    let mut uni = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        ((s >> 40) as f64 * (1.0 / 16777216.0)) as f32
-    };
     for extreme in [false, true] {
-        let (mut oy, mut dy, mut t) = (vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]);
-        for i in 0..n {
-            let y = uni() * 10.0;
-            let (mut u, mut d) = (uni() * 2.0 - 1.0, uni() * 1000.0);
-            if extreme && (i & 7) == 0 {
-                u = (uni() * 2.0 - 1.0) * 1e-6;
-                d = uni() * 1e7;
-            }
-            if !extreme && u < 0.0 && -y / u < d {
-                d = -y / u;
-            }
-            (oy[i], dy[i], t[i]) = (y, u, d);
-        }
+        let peer = PeerRays::new(n, extreme);
         // The directions (0, dy, 0) are not unit; declared unit, the kernel takes |d| = 1
         // as the peer's formula does.
         let z = vec![0.0f32; n];
-        let rays = Rays::new(&z, &oy, &z, &z, &dy, &z, &t)
+        let rays = Rays::new(&z, &peer.oy, &z, &z, &peer.dy, &z, &peer.t)
             .unwrap()
             .with_unit_directions(true);
         type Eval = fn(&Scene, &Rays<'_>, Outputs<'_>) -> Result<(), analytic_fog::BatchError>;
@@ -773,16 +753,7 @@ fn peer_data_sets_accuracy() {
                 inscattering: None,
             };
             eval(&scene, &rays, out).unwrap();
-            let mut worst = 0.0f64;
-            for i in 0..n {
-                let x = f64::from(B) * f64::from(dy[i]) * f64::from(t[i]);
-                let phi = if x != 0.0 { -(-x).exp_m1() / x } else { 1.0 };
-                let geo = (-f64::from(B) * f64::from(oy[i])).exp() * f64::from(t[i]) * phi;
-                for ch in 0..3 {
-                    let want = (-geo * f64::from(BETA[ch])).exp();
-                    worst = worst.max((f64::from(tr[ch][i]) - want).abs());
-                }
-            }
+            let (_, worst) = peer.max_trans_error([&tr[0], &tr[1], &tr[2]]);
             assert!(
                 worst <= 1.2e-7,
                 "{name}, {}: max |T - T_f64| = {worst:e}",

@@ -45,6 +45,7 @@
 mod check;
 mod compose;
 mod controls;
+pub mod peer;
 mod quad;
 pub mod volume;
 

@@ -125,20 +125,11 @@ fn norm(v: [f32; 3]) -> [f32; 3] {
 /// stopping at the ground; extreme: every 8th ray nearly horizontal (|d_up| ≤ 1e-6) and
 /// up to 1e7 long.
 pub fn height_fog(n: usize, extreme: bool) -> RaySet {
-    let mut r = Rng(88172645463325252);
+    let p = crate::reference::peer::PeerRays::new(n, extreme);
+    let dx = p.dx();
     let mut s = RaySet::with_len(n);
     for i in 0..n {
-        let y = r.uni() * 10.0;
-        let mut u = r.uni() * 2.0 - 1.0;
-        let mut d = r.uni() * 1000.0;
-        if extreme && (i & 7) == 0 {
-            u = (r.uni() * 2.0 - 1.0) * 1e-6;
-            d = r.uni() * 1e7;
-        }
-        if !extreme && u < 0.0 && -y / u < d {
-            d = -y / u;
-        }
-        s.set(i, [0.0, y, 0.0], [(1.0 - u * u).max(0.0).sqrt(), u, 0.0], d);
+        s.set(i, [0.0, p.oy[i], 0.0], [dx[i], p.dy[i], 0.0], p.t[i]);
     }
     s
 }

@@ -1,0 +1,90 @@
+//! The C peer's benchmark data (`../shared/peers/c-libmvec/height_fog.c`) and its
+//! accuracy measure, so that benches, examples and tests use one copy of them.
+//!
+//! Medium: b = 0.1, h0 = 0, β = (0.02, 0.03, 0.05), +Y up, unit directions. Data sets, from
+//! the peer's xorshift generator and seed: *typical*: camera height U(0, 10), d_y U(−1, 1),
+//! t U(0, 1000) clipped at the ground y = 0; *extreme*: no clipping, and every 8th ray
+//! with |d_y| < 1e-6 and t up to 1e7.
+
+/// The peer's falloff b.
+pub const FALLOFF: f32 = 0.1;
+/// The peer's extinction per channel (scattering; no absorption).
+pub const BETA: [f32; 3] = [0.02, 0.03, 0.05];
+
+/// The peer's rays: camera heights `oy`, up components `dy` of the unit directions
+/// (d = (√(1 − d_y²), d_y, 0)) and lengths `t`, as the peer generates them.
+pub struct PeerRays {
+    /// Camera heights above the base.
+    pub oy: Vec<f32>,
+    /// Up components of the directions.
+    pub dy: Vec<f32>,
+    /// Segment lengths.
+    pub t: Vec<f32>,
+}
+
+impl PeerRays {
+    /// The first `n` rays of the typical or the extreme set.
+    pub fn new(n: usize, extreme: bool) -> PeerRays {
+        let mut s: u64 = 88172645463325252;
+        let mut uni = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            ((s >> 40) as f64 * (1.0 / 16777216.0)) as f32
+        };
+        let mut r = PeerRays {
+            oy: vec![0.0; n],
+            dy: vec![0.0; n],
+            t: vec![0.0; n],
+        };
+        for i in 0..n {
+            let y = uni() * 10.0;
+            let mut u = uni() * 2.0 - 1.0;
+            let mut d = uni() * 1000.0;
+            if extreme && (i & 7) == 0 {
+                u = (uni() * 2.0 - 1.0) * 1e-6;
+                d = uni() * 1e7;
+            }
+            if !extreme && u < 0.0 && -y / u < d {
+                d = -y / u;
+            }
+            (r.oy[i], r.dy[i], r.t[i]) = (y, u, d);
+        }
+        r
+    }
+
+    /// The x components of the unit directions, √(1 − d_y²).
+    pub fn dx(&self) -> Vec<f32> {
+        self.dy
+            .iter()
+            .map(|u| (1.0 - u * u).max(0.0).sqrt())
+            .collect()
+    }
+
+    /// T_f64 of ray `i` with extinction `beta`: the peer's closed form, evaluated in f64
+    /// from the f32 inputs as the peer checks itself (|d| = 1).
+    pub fn transmittance_f64(&self, i: usize, beta: f32) -> f64 {
+        let b = f64::from(FALLOFF);
+        let x = b * f64::from(self.dy[i]) * f64::from(self.t[i]);
+        let phi = if x != 0.0 { -(-x).exp_m1() / x } else { 1.0 };
+        let geo = (-b * f64::from(self.oy[i])).exp() * f64::from(self.t[i]) * phi;
+        (-geo * f64::from(beta)).exp()
+    }
+
+    /// The peer's accuracy measure for transmittances `trans` (per channel, one value per
+    /// ray): max |T − T_f64| for the first channel (what the peer prints, for β_r) and
+    /// over all three.
+    pub fn max_trans_error(&self, trans: [&[f32]; 3]) -> (f64, f64) {
+        let (mut first, mut all) = (0.0f64, 0.0f64);
+        for i in 0..self.t.len() {
+            for (ch, (tr, &beta)) in trans.iter().zip(&BETA).enumerate() {
+                let e = (f64::from(tr[i]) - self.transmittance_f64(i, beta)).abs();
+                if ch == 0 {
+                    first = first.max(e);
+                }
+                all = all.max(e);
+            }
+        }
+        (first, all)
+    }
+}
