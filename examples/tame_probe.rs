@@ -11,9 +11,8 @@
 //! `cargo run --release --example tame_probe [typical|extreme]` (and the same with
 //! `CARGO_TARGET_DIR=target/v4 RUSTFLAGS="-C target-cpu=x86-64-v4"`); README "Speed".
 use analytic_fog::math::{exp2_nonpos, exp_neg, exp_split, exprel_neg, Lane};
-use analytic_fog::reference::peer::{PeerRays, BETA, FALLOFF};
-use analytic_fog::{Component, HeightFogLayer, Outputs, Phase, Rays, Scene, SceneDesc};
-use glam::Vec3;
+use analytic_fog::reference::peer::{scene_desc, PeerRays, BETA, FALLOFF};
+use analytic_fog::{Outputs, Rays, Scene};
 #[cfg(target_feature = "avx512f")]
 type W = wide::f32x16;
 #[cfg(not(target_feature = "avx512f"))]
@@ -103,20 +102,7 @@ fn main() {
     let peer = PeerRays::new(n, extreme);
     let (oy, dy, t) = (&peer.oy, &peer.dy, &peer.t);
     let z = vec![0.0f32; n];
-    let scene = Scene::new(SceneDesc {
-        height_fog: vec![HeightFogLayer {
-            base_height: 0.0,
-            falloff: FALLOFF,
-            emission: Vec3::ZERO,
-            components: vec![Component {
-                scattering: Vec3::from_array(BETA),
-                absorption: Vec3::ZERO,
-                phase: Phase::Isotropic,
-            }],
-        }],
-        ..SceneDesc::default()
-    })
-    .unwrap();
+    let scene = Scene::new(scene_desc()).unwrap();
     let rays = Rays::new(&z, oy, &z, &z, dy, &z, t)
         .unwrap()
         .with_unit_directions(true);

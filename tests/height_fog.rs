@@ -714,22 +714,9 @@ proptest! {
 /// calls that better accuracy, so this holds every path to 1.2e-7 on all three channels.
 #[test]
 fn peer_data_sets_accuracy() {
-    use analytic_fog::reference::peer::{PeerRays, BETA, FALLOFF};
+    use analytic_fog::reference::peer::{scene_desc, PeerRays};
     let n = 65536;
-    let scene = Scene::new(SceneDesc {
-        height_fog: vec![HeightFogLayer {
-            base_height: 0.0,
-            falloff: FALLOFF,
-            emission: Vec3::ZERO,
-            components: vec![Component {
-                scattering: Vec3::from_array(BETA),
-                absorption: Vec3::ZERO,
-                phase: Phase::Isotropic,
-            }],
-        }],
-        ..SceneDesc::default()
-    })
-    .unwrap();
+    let scene = Scene::new(scene_desc()).unwrap();
     for extreme in [false, true] {
         let peer = PeerRays::new(n, extreme);
         // The directions (0, dy, 0) are not unit; declared unit, the kernel takes |d| = 1

@@ -6,10 +6,31 @@
 //! t U(0, 1000) clipped at the ground y = 0; *extreme*: no clipping, and every 8th ray
 //! with |d_y| < 1e-6 and t up to 1e7.
 
+use crate::{Component, HeightFogLayer, Phase, SceneDesc};
+use glam::Vec3;
+
 /// The peer's falloff b.
 pub const FALLOFF: f32 = 0.1;
 /// The peer's extinction per channel (scattering; no absorption).
 pub const BETA: [f32; 3] = [0.02, 0.03, 0.05];
+
+/// The peer's medium as a scene: one layer (base height 0, falloff [`FALLOFF`],
+/// scattering [`BETA`], isotropic), no light.
+pub fn scene_desc() -> SceneDesc {
+    SceneDesc {
+        height_fog: vec![HeightFogLayer {
+            base_height: 0.0,
+            falloff: FALLOFF,
+            emission: Vec3::ZERO,
+            components: vec![Component {
+                scattering: Vec3::from_array(BETA),
+                absorption: Vec3::ZERO,
+                phase: Phase::Isotropic,
+            }],
+        }],
+        ..SceneDesc::default()
+    }
+}
 
 /// The peer's rays: camera heights `oy`, up components `dy` of the unit directions
 /// (d = (√(1 − d_y²), d_y, 0)) and lengths `t`, as the peer generates them.
