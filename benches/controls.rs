@@ -6,6 +6,7 @@
 //!
 //! `cargo bench --bench controls -- --warm-up-time 1 --measurement-time 3`
 
+use analytic_fog::reference::peer::PeerRays;
 use analytic_fog::{
     Component, DistanceFog, Falloff, FogLimits, HeightFogLayer, Lighting, Lobe, Outputs, Phase,
     Rays, Scene, SceneDesc, Sun,
@@ -18,27 +19,9 @@ const N: usize = 65_536;
 /// The C peer's typical rays (unit directions in the x-y plane, cameras 0..10 above the
 /// base, t up to 1000 or to the ground).
 fn rays() -> [Vec<f32>; 7] {
-    let mut s: u64 = 88172645463325252;
-    let mut uni = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        ((s >> 40) as f64 * (1.0 / 16777216.0)) as f32
-    };
-    let mut r: [Vec<f32>; 7] = Default::default();
-    for _ in 0..N {
-        let y = uni() * 10.0;
-        let u = uni() * 2.0 - 1.0;
-        let mut d = uni() * 1000.0;
-        if u < 0.0 && -y / u < d {
-            d = -y / u;
-        }
-        let v = [0.0, y, 0.0, (1.0 - u * u).max(0.0).sqrt(), u, 0.0, d];
-        for (c, x) in r.iter_mut().zip(v) {
-            c.push(x);
-        }
-    }
-    r
+    let p = PeerRays::new(N, false);
+    let z = vec![0.0f32; N];
+    [z.clone(), p.oy.clone(), z.clone(), p.dx(), p.dy, z, p.t]
 }
 
 fn base() -> SceneDesc {
