@@ -12,8 +12,8 @@ use crate::light::PhaseEval;
 use crate::math::{exp_neg, exp_neg_fast, ldexp, pow2_pair, Lane};
 use crate::medium::distance::DistancePlan;
 use crate::medium::height_fog::{
-    depth_args_of, depth_of, depth_phi, depth_with_of, direction_norm, falloff_kind, layer_depth,
-    DepthArgs, RayGeom, TWO_M64,
+    depth_args_of, depth_args_tame, depth_of, depth_phi, depth_with_of, direction_norm,
+    falloff_kind, layer_depth, DepthArgs, RayGeom, TWO_M64,
 };
 use crate::medium::volume::{clamp_colour, Entry};
 use crate::ray::{Outputs, Rays};
@@ -84,25 +84,53 @@ fn packet_geometry<L: Lane, const AXIS: usize, const UNIT: bool>(
     p: &PacketIn<L>,
     want_l: bool,
 ) -> (RayGeom<L>, (L, L), [L; 3], Option<[f32; 3]>) {
+    let (norm, dir) = packet_norm::<L, UNIT>(p);
+    let geom = packet_geom::<L, AXIS>(up, p, norm, &dir);
+    let sun = if want_l { sun_dir } else { None };
+    (geom, norm, dir, sun)
+}
+
+/// |d| as (mantissa, exponent) and the unit direction (d itself for `UNIT`).
+#[inline(always)]
+fn packet_norm<L: Lane, const UNIT: bool>(p: &PacketIn<L>) -> ((L, L), [L; 3]) {
     // Exponents that are known to be 0 are −0.0: x + (−0.0) is x for every x, so the
     // compiler drops the add (x + 0.0 is not: it turns −0.0 into +0.0).
-    let zero = L::splat(-0.0);
-    let one = L::splat(1.0);
-    let (norm, dir) = if UNIT {
-        ((one, zero), p.d)
+    if UNIT {
+        ((L::splat(1.0), L::splat(-0.0)), p.d)
     } else {
         direction_norm(p.d)
-    };
+    }
+}
+
+/// The height dot(o, up) · 2^-64 for an axis-aligned up vector (see [`packet_geom`]).
+#[inline(always)]
+fn height_scaled<L: Lane, const AXIS: usize>(p: &PacketIn<L>) -> L {
+    p.o[AXIS] * L::splat(TWO_M64)
+}
+
+/// [`RayGeom`] of a packet, given [`packet_norm`]'s results.
+#[inline(always)]
+fn packet_geom<L: Lane, const AXIS: usize>(
+    up: [f32; 3],
+    p: &PacketIn<L>,
+    norm: (L, L),
+    dir: &[L; 3],
+) -> RayGeom<L> {
     // Height, height · 2^-64, and u = dot(d, up) as u · 2^u_shift. For a general up,
     // dot(o, up) and dot(d, up) overflow for finite o and d near f32::MAX (NaN for a
     // finite ray, found by `tests/height_fog.rs`): the height is also formed at 2^-64
     // scale, and u from the unit direction times n_m, with |d|'s exponent n_e carried
     // apart (which also keeps u's precision for subnormal directions).
     let (y, y_s, u, u_shift) = if AXIS < 3 {
-        (p.o[AXIS], p.o[AXIS] * L::splat(TWO_M64), p.d[AXIS], zero)
+        (
+            p.o[AXIS],
+            height_scaled::<L, AXIS>(p),
+            p.d[AXIS],
+            L::splat(-0.0),
+        )
     } else {
         let up_s = up.map(|c| c * TWO_M64);
-        let u = crate::light::dot3(dir, up) * norm.0;
+        let u = crate::light::dot3(*dir, up) * norm.0;
         (
             crate::light::dot3(p.o, up),
             crate::light::dot3(p.o, up_s),
@@ -110,10 +138,7 @@ fn packet_geometry<L: Lane, const AXIS: usize, const UNIT: bool>(
             norm.1,
         )
     };
-    let geom = RayGeom::new(y, y_s, u, u_shift, p.t, norm);
-    let sun = if want_l { sun_dir } else { None };
-
-    (geom, norm, dir, sun)
+    RayGeom::new(y, y_s, u, u_shift, p.t, norm)
 }
 
 /// True if the scene is one height fog layer and nothing else: the case
@@ -238,6 +263,13 @@ pub(crate) fn eval_packet<
 /// Stage 1 of the single-layer kernel: the geometry and the arguments of the layer's
 /// two exponentials (see `layer_depth`), and the unit direction when the colour needs
 /// it (`WANT_L`; zeros otherwise).
+///
+/// For an axis-aligned up vector and 0 < |b| ≤ 2^40 (`KIND` 1, the common case), a
+/// packet whose rays all stay in f32's normal range takes the arguments from
+/// `depth_args_tame` (no frexp, no exponent sums): the same bits after stage 3, for
+/// about half the instructions of this stage. Other packets (a lane looking far into
+/// dense fog, a near-zero or infinite segment) take the general arithmetic, so extreme
+/// data cost at most the general path's time.
 #[inline(always)]
 pub(crate) fn single_args<
     L: Lane,
@@ -249,11 +281,29 @@ pub(crate) fn single_args<
     single: &Single,
     p: &PacketIn<L>,
 ) -> (DepthArgs<L>, [L; 3]) {
-    let (geom, _norm, dir, _sun) =
-        packet_geometry::<L, AXIS, UNIT>(single.up, single.sun, p, WANT_L);
-    let args = depth_args_of::<L, KIND>(&single.layer, &geom);
-    let dir = if WANT_L { dir } else { [L::splat(0.0); 3] };
-    (args, dir)
+    let (norm, dir) = packet_norm::<L, UNIT>(p);
+    let dir_out = if WANT_L { dir } else { [L::splat(0.0); 3] };
+    if KIND == 1 && AXIS < GENERAL {
+        let y_s = height_scaled::<L, AXIS>(p);
+        let (args, ok) = depth_args_tame(&single.layer, y_s, p.d[AXIS], p.t, norm);
+        if !L::any(!ok) {
+            return (args, dir_out);
+        }
+    }
+    let geom = packet_geom::<L, AXIS>(single.up, p, norm, &dir);
+    (depth_args_of::<L, KIND>(&single.layer, &geom), dir_out)
+}
+
+/// [`single_args`] without the tame path: the general arithmetic for every packet (the
+/// oracle of the tame path's tests).
+#[cfg(test)]
+pub(crate) fn single_args_general<L: Lane, const AXIS: usize, const UNIT: bool, const KIND: u8>(
+    single: &Single,
+    p: &PacketIn<L>,
+) -> DepthArgs<L> {
+    let (norm, dir) = packet_norm::<L, UNIT>(p);
+    let geom = packet_geom::<L, AXIS>(single.up, p, norm, &dir);
+    depth_args_of::<L, KIND>(&single.layer, &geom)
 }
 
 /// Stage 2: the layer's geometric depth G = τ/σ0 as (mantissa, exponent).
@@ -1424,5 +1474,144 @@ impl Scene {
         out.check(rays.len())?;
         run_unspecialized(self, rays, &mut out);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The tame path of stage 1 (`depth_args_tame`) against the general arithmetic it
+    //! replaces: τ and T must have the same bits for every ray the tame path accepts.
+    use super::*;
+    use crate::{Component, HeightFogLayer, Phase, SceneDesc};
+    use glam::Vec3;
+
+    /// τ (three channels) and T after stages 2 to 4 from the given stage-1 arguments
+    /// (NaN as one pattern: its sign and payload are not specified).
+    fn finish(single: &Single, args: DepthArgs<f32>) -> [u32; 6] {
+        let depth = single_depth::<f32, false>(single, args);
+        let tau = match single.tau_kind {
+            0 => single_tau::<f32, 0>(single, depth),
+            1 => single_tau::<f32, 1>(single, depth),
+            _ => single_tau::<f32, 2>(single, depth),
+        };
+        let t = tau.map(single_trans::<f32, false>);
+        [tau[0], tau[1], tau[2], t[0], t[1], t[2]].map(|x| {
+            if x.is_nan() {
+                u32::MAX
+            } else {
+                x.to_bits()
+            }
+        })
+    }
+
+    fn single(b: f32, h0: f32, sigma: [f32; 3]) -> Single {
+        let scene = Scene::new(SceneDesc {
+            height_fog: vec![HeightFogLayer {
+                base_height: h0,
+                falloff: b,
+                emission: Vec3::ZERO,
+                components: vec![Component {
+                    scattering: Vec3::from_array(sigma),
+                    absorption: Vec3::ZERO,
+                    phase: Phase::Isotropic,
+                }],
+            }],
+            ..SceneDesc::default()
+        })
+        .unwrap();
+        Single::of(&scene).unwrap()
+    }
+
+    /// Values on both sides of every bound of the tame path, and the extremes.
+    fn edge_values(bounds: &[f32]) -> Vec<f32> {
+        let mut v = vec![
+            0.0,
+            -0.0,
+            f32::MIN_POSITIVE,
+            1e-45,
+            1e-30,
+            1e-12,
+            0.3,
+            1.0,
+            7.5,
+            1e3,
+            1e12,
+            3e38,
+            f32::MAX,
+            f32::INFINITY,
+            f32::NAN,
+        ];
+        for &b in bounds {
+            for k in -1i32..=1 {
+                v.push(f32::from_bits((b.to_bits() as i32 + k) as u32));
+            }
+        }
+        let neg: Vec<f32> = v.iter().map(|x| -x).collect();
+        v.extend(neg);
+        v
+    }
+
+    #[test]
+    fn tame_stage_one_gives_the_general_bits() {
+        let two = |e: i32| 2.0f32.powi(e);
+        let ts = edge_values(&[two(-20), two(31), two(-59), 256.0]);
+        let us = edge_values(&[two(-59), two(-90), two(-126), 256.0, two(-62)]);
+        let ys = edge_values(&[two(-62), two(-60), two(64), two(100)]);
+        // (b, h0): typical, negative, tiny and the largest of KIND 1; base heights that
+        // make y − h0 cancel or leave the scaled range.
+        let layers = [
+            (0.1, 0.0),
+            (-0.37, 5.0),
+            (1e-30, -1e20),
+            (1_099_511_627_776.0, 1e-19), // 2^40
+            (3.0, 2.168_404_3e-19),       // 2^-62
+            (1e-12, 3e38),
+        ];
+        let sigmas = [
+            [0.5; 3],
+            [0.02, 0.03, 0.05],
+            [1e-20, 1.0, 1e20],
+            [1e-38, 2e-38, 0.0],
+        ];
+        let (mut tame, mut total) = (0usize, 0usize);
+        for &(b, h0) in &layers {
+            for sigma in sigmas {
+                let s = single(b, h0, sigma);
+                assert_eq!(falloff_kind(&s.layer), 1);
+                for &y in &ys {
+                    for &u in &us {
+                        for &t in &ts {
+                            let p = |dx: f32| PacketIn {
+                                o: [0.0, y, 0.0],
+                                d: [dx, u, 0.0],
+                                t,
+                            };
+                            let ctx = || {
+                                format!("b={b:e} h0={h0:e} sigma={sigma:?} y={y:e} u={u:e} t={t:e}")
+                            };
+                            total += 1;
+                            let y_s = height_scaled::<f32, 1>(&p(0.0));
+                            let (_, ok) = depth_args_tame(&s.layer, y_s, u, t, (1.0, -0.0));
+                            tame += ok as usize;
+                            // Unit directions.
+                            let (a, _) = single_args::<f32, 1, true, false, 1>(&s, &p(0.0));
+                            let g = single_args_general::<f32, 1, true, 1>(&s, &p(0.0));
+                            assert_eq!(finish(&s, a), finish(&s, g), "{}", ctx());
+                            // General directions (|d| carried as mantissa and exponent).
+                            for dx in [0.6f32, 1e-30, 3e20] {
+                                let (a, _) = single_args::<f32, 1, false, false, 1>(&s, &p(dx));
+                                let g = single_args_general::<f32, 1, false, 1>(&s, &p(dx));
+                                assert_eq!(finish(&s, a), finish(&s, g), "dx={dx:e} {}", ctx());
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // Both paths were exercised.
+        assert!(
+            tame > total / 20 && tame < total / 2,
+            "{tame} of {total} tame"
+        );
     }
 }

@@ -272,6 +272,65 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
     }
 }
 
+/// Bounds of [`depth_args_tame`]'s lanes: |d|·t in [2^-20, 2^31], |Δ| < 2^8, and a
+/// negative Δ no closer to 0 than −2^-59.
+const TAME_M_MIN: f32 = 9.536_743e-7; // 2^-20
+const TAME_M_MAX: f32 = 2_147_483_648.0; // 2^31
+const TAME_DELTA_MAX: f32 = 256.0;
+const TAME_NEG_DELTA: f32 = -1.734_723_5e-18; // -2^-59
+
+/// [`depth_args_of`]`::<L, 1>` (0 < |b| ≤ 2^40) for an axis-aligned up vector, on plain
+/// f32 without the mantissa/exponent bookkeeping (no frexp of u and t, no exponent sums,
+/// no power-of-two scalings of Δ): `y`, `u` and `t` are the height, the up component of
+/// d and the segment end, `norm` is |d| as (n_m, n_e). Returns the arguments and the
+/// lanes where they are valid; the caller uses them only if every lane is (the batch
+/// kernel decides per packet, so that extreme data keep their speed).
+///
+/// Where the mask is set, `depth_of` and the `ldexp` of stage 3 give the same bits as
+/// from [`depth_args_of`] (tested against it in `kernel::tests`), because the two differ
+/// only by exact powers of two while every intermediate is a normal f32:
+/// - m = n_m·t and e = n_e instead of n_m·t_m and n_e + t_e: the same G = m·φ·e^(−u_min)
+///   scaled by 2^t_e. With φ ≥ 2^-8 (|Δ| < 2^8), e^(−u_min)'s mantissa in [0.66, 1.5]
+///   and a channel's mantissa in [2^-16, 2), |m·φ·e^(−u_min)·σ_m| is in [2^-45, 2^33],
+///   inside `ldexp`'s precondition [2^-62, 2^39] (and its product with `pow2_pair`'s
+///   first factor stays normal), so τ is rounded from the same real number;
+/// - Δ = (b·u)·t against (b_m·u_m)·t_m: the same roundings where b·u and Δ are normal,
+///   which |Δ| ≥ 2^-59 with t ≤ 2^31 guarantees; below 2^-60 both give φ's argument
+///   2^-60, and a non-negative Δ does not enter u_min;
+/// - |Δ| < 2^8 keeps φ's argument unclamped (exponent of Δ ≤ 7) and φ's exponent 0;
+/// - Δ·2^-64 is exact for Δ ≤ −2^-59 (the general path clamps the scaling below 2^-126);
+/// - the height term b·(y·2^-64 − h0·2^-64) is formed by the same operations;
+/// - the guard is 0: t is finite and positive, y is finite (checked), and u is finite
+///   because b·u·t is finite with t > 0.
+#[inline(always)]
+pub(crate) fn depth_args_tame<L: Lane>(
+    layer: &LayerCore,
+    y_s: L,
+    u: L,
+    t: L,
+    norm: (L, L),
+) -> (DepthArgs<L>, L::Mask) {
+    let m = norm.0 * t;
+    let d = (L::splat(layer.b) * u) * t;
+    let ad = d.abs();
+    let a0s = L::splat(layer.b) * (y_s - L::splat(layer.h0 * TWO_M64));
+    let ds = d * L::splat(TWO_M64);
+    let neg_u_min = (a0s + ds.min(L::splat(0.0))) * L::splat(-TWO64);
+    let ok = m.ge(L::splat(TAME_M_MIN))
+        & m.le(L::splat(TAME_M_MAX))
+        & ad.lt(L::splat(TAME_DELTA_MAX))
+        & (d.ge(L::splat(0.0)) | d.le(L::splat(TAME_NEG_DELTA)))
+        & y_s.abs().le(L::splat(f32::MAX));
+    let args = DepthArgs {
+        dc: ad.max(L::splat(8.673_617e-19)), // 2^-60, as in `depth_args_of`
+        neg_u_min,
+        m,
+        e: norm.1,
+        guard: L::splat(0.0),
+    };
+    (args, ok)
+}
+
 /// The second half of [`layer_depth`]: φ(|Δ|) and e^(−u_min), and G assembled.
 #[inline(always)]
 pub(crate) fn depth_of<L: Lane, const FAST: bool>(layer: &LayerCore, a: DepthArgs<L>) -> (L, L) {
