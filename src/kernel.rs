@@ -1620,4 +1620,34 @@ mod tests {
             "{tame} of {total} tame"
         );
     }
+
+    /// The tame path covers every packet of both of the peer's data sets (README,
+    /// "Speed"; the extreme set is extreme for a plain f32 formula, whose exponentials
+    /// overflow and underflow there, not for the tame path's bounds, which leave the
+    /// density's exponential split): a change that sent them to the general arithmetic
+    /// would keep the bits and lose the speed unnoticed.
+    #[test]
+    fn tame_path_covers_the_peer_data() {
+        use crate::reference::peer::{PeerRays, BETA, FALLOFF};
+        let s = single(FALLOFF, 0.0, BETA);
+        for extreme in [false, true] {
+            let rays = PeerRays::new(65536, extreme);
+            let (mut tame, mut total) = (0usize, 0usize);
+            for k in (0..rays.t.len()).step_by(8) {
+                let v = |a: &[f32]| f32x8::new(a[k..k + 8].try_into().unwrap());
+                let (_, ok) = depth_args_tame(
+                    &s.layer,
+                    v(&rays.oy) * f32x8::splat(TWO_M64),
+                    v(&rays.dy),
+                    v(&rays.t),
+                    (f32x8::splat(1.0), f32x8::splat(-0.0)),
+                );
+                tame += ok.all() as usize;
+                total += 1;
+            }
+            let share = tame as f64 / total as f64;
+            eprintln!("extreme={extreme}: {tame} of {total} packets of 8 tame ({share:.3})");
+            assert_eq!(tame, total, "extreme={extreme}");
+        }
+    }
 }
