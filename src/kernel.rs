@@ -956,6 +956,7 @@ fn run_single<
     let mut dirs = [[zero; 3]; BLOCK];
     let mut taus = [[zero; 3]; BLOCK];
     let mut trans = [[zero; 3]; BLOCK];
+    let mut gs = [zero; BLOCK];
     let mut i = 0;
     while i < full {
         let m = ((full - i) / L::LANES).min(BLOCK);
@@ -1013,7 +1014,14 @@ fn run_single<
             (_, false) => args_loop!(2, false),
             (_, true) => args_loop!(2, true),
         }
+        // T without τ, three channels sharing one pair of scale factors: each T loop
+        // forms τ_c from one value per packet (see `depth_stages_shared`).
         depth_stages::<L, FAST>(kind, &args[..m], &mut phis, &mut depth);
+        let shared_block = !L::NATIVE_SCALE
+            && single.tau_kind == 1
+            && o_tau.is_none()
+            && (WANT_T || WANT_L)
+            && shared_depth(single, &depth[..m], &mut gs);
         macro_rules! tau_loop {
             ($kind:literal) => {{
                 let pairs = taus[..m].iter_mut().zip(depth[..m].iter());
@@ -1043,12 +1051,38 @@ fn run_single<
                 }
             }};
         }
-        match single.tau_kind {
-            0 => tau_loop!(0),
-            1 => tau_loop!(1),
-            _ => tau_loop!(2),
+        if !shared_block {
+            match single.tau_kind {
+                0 => tau_loop!(0),
+                1 => tau_loop!(1),
+                _ => tau_loop!(2),
+            }
         }
-        if WANT_T || WANT_L {
+        if shared_block {
+            let mut dst = o_tr
+                .as_mut()
+                .map(|d| d.each_mut().map(|s| &mut s[i..i + m * L::LANES]));
+            for ch in 0..3 {
+                let mc = L::splat(single.shared.1[ch]);
+                let pairs = gs[..m].iter().zip(trans[..m].iter_mut());
+                match &mut dst {
+                    Some(d) => {
+                        for ((&g, tr_k), x) in pairs.zip(d[ch].chunks_exact_mut(L::LANES)) {
+                            let tr = single_trans::<L, FAST>(g * mc);
+                            tr.store(x);
+                            if WANT_L {
+                                tr_k[ch] = tr;
+                            }
+                        }
+                    }
+                    None => {
+                        for (&g, tr_k) in pairs {
+                            tr_k[ch] = single_trans::<L, FAST>(g * mc);
+                        }
+                    }
+                }
+            }
+        } else if WANT_T || WANT_L {
             // One channel at a time: the exponential's constants stay in registers. Each
             // value goes straight to the caller's array (the block's part of it, in
             // chunks: no bounds check per packet) and, for the colour, to `trans`.
@@ -1146,6 +1180,36 @@ fn run_single<
         }
         i += m * L::LANES;
     }
+}
+
+/// For a block whose layer has a shared scale (`tau_kind` 1) and whose τ is not stored:
+/// writes g = gm·2^e per packet, (gm, ge) being the geometric depth, e =
+/// ge + e_s (e_s the shared exponent) clamped to [−64, 64], so that each T loop forms
+/// τ_c = g·m_c from one value per packet, where `single_tau` would store three (4 % of
+/// `transmittance_rgb/x8_unit`). Returns false (the block takes `single_tau`) if some
+/// e is NaN.
+///
+/// T has the same bits as from `single_tau`'s τ_c = (gm·s1)·m_c·s2 (`pow2_pair`),
+/// since gm < 2^32, gm ≥ 2^-32 or gm = 0 (m·φ·e^(−u_min) with φ ≥ 2^-11; m in [1, 4) or
+/// the tame stage's [2^-20, 2^31]), and a non-zero m_c is in [2^-16, 2) (`shared_scale`):
+/// - for |e| ≤ 64, `pow2_pair` gives s1 = 2^e and s2 = 1: the same products of the same
+///   values;
+/// - for e < −64 both τ are below 2^32·2^-64·2 = 2^-31, where `exp_neg` and
+///   `exp_neg_fast` give 1 (1 − τ rounds to 1 below 2^-25);
+/// - for e > 64 both τ are at least 2^-32·2^64·2^-16 = 2^16 (or 0 in both where m_c or
+///   gm is 0), where both give 0;
+/// - a NaN gm gives the same NaN in both (the first operand of each product).
+#[inline(always)]
+fn shared_depth<L: Lane>(single: &Single, depth: &[(L, L)], gs: &mut [L; BLOCK]) -> bool {
+    let es = L::splat(single.shared.0);
+    // The sum of the exponents is NaN if one is (each is below 2^23 in magnitude).
+    let mut sum = L::splat(0.0);
+    for (g, &(gm, ge)) in gs.iter_mut().zip(depth) {
+        let e = ge + es;
+        sum = sum + e;
+        *g = gm * L::pow2i(e.clamp(L::splat(-64.0), L::splat(64.0)));
+    }
+    !L::any(!sum.eq(sum))
 }
 
 /// The lane type of the vector paths: `f32x8` (AVX2: one ymm register), or `f32x16` where
@@ -1553,6 +1617,89 @@ mod tests {
         let neg: Vec<f32> = v.iter().map(|x| -x).collect();
         v.extend(neg);
         v
+    }
+
+    /// `shared_depth` (T without τ) against `single_tau`: the same T bits, both tiers,
+    /// for depths (gm, ge) over the whole range the kernel produces (gm < 2^32, ≥ 2^-32
+    /// or 0, NaN), with the scale exponent e = ge + e_s on both sides of ±64 and far
+    /// beyond, and σ sets with a zero channel and channels 2^16 apart; a NaN exponent
+    /// makes the block fall back.
+    #[test]
+    fn shared_depth_gives_the_transmittance_of_single_tau() {
+        let two = |e: i32| 2.0f32.powi(e);
+        let gms = [
+            0.0,
+            two(-32),
+            0.66 * two(-11),
+            0.3,
+            1.0,
+            1.999_999_9,
+            5.999_999_5,
+            1.5 * two(31),
+            f32::from_bits(two(32).to_bits() - 1),
+            f32::NAN,
+        ];
+        let sigmas = [
+            [0.02, 0.03, 0.05],
+            [1e-20, 1.3e-20, 0.0],
+            [1.0, 1.0 / 65536.0, 0.7],
+            [3e30, 2e30, 1e30],
+            [0.0, 0.0, 1e-3],
+        ];
+        let mut checked = [0usize; 3];
+        for sigma in sigmas {
+            let s = single(0.1, 0.0, sigma);
+            assert_eq!(s.tau_kind, 1, "{sigma:?}");
+            let es = s.shared.0 as i32;
+            for &gm in &gms {
+                for e in (-200..=200).chain([-2_000_000, 2_000_000]) {
+                    let ge = (e - es) as f32;
+                    let depth = [(f32x8::splat(gm), f32x8::splat(ge)); BLOCK];
+                    let mut gs = [f32x8::splat(0.0); BLOCK];
+                    assert!(shared_depth(&s, &depth, &mut gs));
+                    let tau = single_tau::<f32x8, 1>(&s, depth[0]);
+                    for ch in 0..3 {
+                        let tau_c = gs[0] * f32x8::splat(s.shared.1[ch]);
+                        let bits = |x: f32x8| {
+                            let x = x.to_array()[0];
+                            if x.is_nan() {
+                                u32::MAX
+                            } else {
+                                x.to_bits()
+                            }
+                        };
+                        let ctx = format!("sigma={sigma:?} gm={gm:e} e={e} channel {ch}");
+                        assert_eq!(
+                            bits(single_trans::<f32x8, false>(tau_c)),
+                            bits(single_trans::<f32x8, false>(tau[ch])),
+                            "{ctx}"
+                        );
+                        assert_eq!(
+                            bits(single_trans::<f32x8, true>(tau_c)),
+                            bits(single_trans::<f32x8, true>(tau[ch])),
+                            "Fast tier: {ctx}"
+                        );
+                        let t = single_trans::<f32, false>(tau[ch].to_array()[0]);
+                        checked[if t == 1.0 {
+                            0
+                        } else if t == 0.0 {
+                            1
+                        } else {
+                            2
+                        }] += 1;
+                    }
+                }
+            }
+        }
+        // T = 1, T = 0 and T in between were all compared.
+        assert!(checked.iter().all(|&n| n > 500), "{checked:?}");
+        // A NaN exponent in one lane of one packet: the block falls back.
+        let s = single(0.1, 0.0, [0.02, 0.03, 0.05]);
+        let mut depth = [(f32x8::splat(1.0), f32x8::splat(0.0)); BLOCK];
+        let mut ge = [0.0f32; 8];
+        ge[5] = f32::NAN;
+        depth[BLOCK - 1].1 = f32x8::from(ge);
+        assert!(!shared_depth(&s, &depth, &mut [f32x8::splat(0.0); BLOCK]));
     }
 
     #[test]
