@@ -1059,26 +1059,29 @@ fn run_single<
             }
         }
         if shared_block {
-            let mut dst = o_tr
-                .as_mut()
-                .map(|d| d.each_mut().map(|s| &mut s[i..i + m * L::LANES]));
-            for ch in 0..3 {
-                let mc = L::splat(single.shared.1[ch]);
-                let pairs = gs[..m].iter().zip(trans[..m].iter_mut());
-                match &mut dst {
-                    Some(d) => {
-                        for ((&g, tr_k), x) in pairs.zip(d[ch].chunks_exact_mut(L::LANES)) {
-                            let tr = single_trans::<L, FAST>(g * mc);
-                            tr.store(x);
-                            if WANT_L {
-                                tr_k[ch] = tr;
-                            }
+            // The three channels in one loop: one load of g per packet.
+            let mc = single.shared.1.map(L::splat);
+            let w = m * L::LANES;
+            let pairs = gs[..m].iter().zip(trans[..m].iter_mut());
+            match o_tr.as_mut() {
+                Some([d0, d1, d2]) => {
+                    let chunks = d0[i..i + w]
+                        .chunks_exact_mut(L::LANES)
+                        .zip(d1[i..i + w].chunks_exact_mut(L::LANES))
+                        .zip(d2[i..i + w].chunks_exact_mut(L::LANES));
+                    for ((&g, tr_k), ((a, b), c)) in pairs.zip(chunks) {
+                        let tr = mc.map(|k| single_trans::<L, FAST>(g * k));
+                        tr[0].store(a);
+                        tr[1].store(b);
+                        tr[2].store(c);
+                        if WANT_L {
+                            *tr_k = tr;
                         }
                     }
-                    None => {
-                        for (&g, tr_k) in pairs {
-                            tr_k[ch] = single_trans::<L, FAST>(g * mc);
-                        }
+                }
+                None => {
+                    for (&g, tr_k) in pairs {
+                        *tr_k = mc.map(|k| single_trans::<L, FAST>(g * k));
                     }
                 }
             }
