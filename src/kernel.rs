@@ -12,8 +12,8 @@ use crate::light::PhaseEval;
 use crate::math::{exp_neg, exp_neg_fast, ldexp, pow2_pair, Lane};
 use crate::medium::distance::DistancePlan;
 use crate::medium::height_fog::{
-    depth_args_of, depth_args_tame, depth_of, depth_phi, depth_with_of, direction_norm,
-    falloff_kind, layer_depth, DepthArgs, RayGeom, TWO_M64,
+    depth_args_of, depth_args_tame, depth_of, depth_phi, depth_with_of, depth_with_tame,
+    direction_norm, falloff_kind, layer_depth, DepthArgs, RayGeom, TWO_M64,
 };
 use crate::medium::volume::{clamp_colour, Entry};
 use crate::ray::{Outputs, Rays};
@@ -284,17 +284,38 @@ pub(crate) fn single_args<
     single: &Single,
     p: &PacketIn<L>,
 ) -> (DepthArgs<L>, [L; 3]) {
+    let (args, dir, _) = single_args_tamed::<L, AXIS, UNIT, WANT_L, KIND>(single, p);
+    (args, dir)
+}
+
+/// [`single_args`], and whether the packet took the tame path (then its guard is 0, and
+/// its exponent −0 for unit directions: see [`depth_with_tame`]).
+#[inline(always)]
+pub(crate) fn single_args_tamed<
+    L: Lane,
+    const AXIS: usize,
+    const UNIT: bool,
+    const WANT_L: bool,
+    const KIND: u8,
+>(
+    single: &Single,
+    p: &PacketIn<L>,
+) -> (DepthArgs<L>, [L; 3], bool) {
     let (norm, dir) = packet_norm::<L, UNIT>(p);
     let dir_out = if WANT_L { dir } else { [L::splat(0.0); 3] };
     if KIND == 1 && AXIS < GENERAL && L::LANES > 1 {
         let y_s = height_scaled::<L, AXIS>(p);
         let (args, ok) = depth_args_tame(&single.layer, y_s, p.d[AXIS], p.t, norm);
         if !L::any(!ok) {
-            return (args, dir_out);
+            return (args, dir_out, true);
         }
     }
     let geom = packet_geom::<L, AXIS>(single.up, p, norm, &dir);
-    (depth_args_of::<L, KIND>(&single.layer, &geom), dir_out)
+    (
+        depth_args_of::<L, KIND>(&single.layer, &geom),
+        dir_out,
+        false,
+    )
 }
 
 /// [`single_args`] without the tame path: the general arithmetic for every packet (the
@@ -977,6 +998,7 @@ fn run_single<
         // The loads zip the block's arrays in packet-sized chunks (no bounds check per
         // packet); whether the whole direction is read (`all_d`) is a literal in each
         // copy of the loop, not a test per packet.
+        let mut all_tame = true;
         macro_rules! args_loop {
             ($kind:literal, $all_d:literal) => {{
                 let c = |j: usize| blk[j].chunks_exact(L::LANES);
@@ -998,7 +1020,9 @@ fn run_single<
                         d: [at(3, d0), at(4, d1), at(5, d2)],
                         t: L::load(t),
                     };
-                    let (args_k, dir_k) = single_args::<L, AXIS, UNIT, WANT_L, $kind>(single, &p);
+                    let (args_k, dir_k, tame_k) =
+                        single_args_tamed::<L, AXIS, UNIT, WANT_L, $kind>(single, &p);
+                    all_tame &= tame_k;
                     *a = args_k;
                     if !UNIT {
                         *dir = dir_k;
@@ -1016,7 +1040,11 @@ fn run_single<
         }
         // T without τ, three channels sharing one pair of scale factors: each T loop
         // forms τ_c from one value per packet (see `depth_stages_shared`).
-        depth_stages::<L, FAST>(kind, &args[..m], &mut phis, &mut depth);
+        if all_tame && kind == 1 {
+            depth_stages_tame::<L, FAST, UNIT>(&args[..m], &mut phis, &mut depth);
+        } else {
+            depth_stages::<L, FAST>(kind, &args[..m], &mut phis, &mut depth);
+        }
         let shared_block = !L::NATIVE_SCALE
             && single.tau_kind == 1
             && o_tau.is_none()
@@ -1408,6 +1436,24 @@ fn depth_stages<L: Lane, const FAST: bool>(
     }
 }
 
+/// [`depth_stages`] for a block of packets that all took the tame stage 1 (a falloff
+/// of kind 1), with the same bits: their guard is 0 and, for unit directions, their
+/// exponent −0, so the density stage skips adding them (two loads and two adds per
+/// packet).
+#[inline(always)]
+fn depth_stages_tame<L: Lane, const FAST: bool, const UNIT: bool>(
+    args: &[DepthArgs<L>],
+    phis: &mut [L; BLOCK],
+    depth: &mut [(L, L); BLOCK],
+) {
+    for (phi, a) in phis.iter_mut().zip(args) {
+        *phi = depth_phi::<L, FAST>(a);
+    }
+    for ((d, a), &phi) in depth.iter_mut().zip(args).zip(phis.iter()) {
+        *d = depth_with_tame::<L, FAST, UNIT>(a, phi);
+    }
+}
+
 /// [`eval_packet`]`::<L, AXIS, UNIT, true, true, FAST>` for each packet of `ins` (at
 /// most [`BLOCK`]), stage by stage over the block as in [`run_single`]: the same stage
 /// functions in the same order, so the same bits. T and L_in are always formed (the
@@ -1573,6 +1619,28 @@ mod tests {
                 x.to_bits()
             }
         })
+    }
+
+    /// `depth_with_tame` gives the bits of `depth_with_of` on tame arguments (both tiers).
+    fn same_depth<const UNIT: bool>(a: &DepthArgs<f32x8>, ctx: &str) {
+        let bits = |(m, e): (f32x8, f32x8)| {
+            (
+                m.to_array().map(f32::to_bits),
+                e.to_array().map(f32::to_bits),
+            )
+        };
+        let phi = depth_phi::<f32x8, false>(a);
+        assert_eq!(
+            bits(depth_with_tame::<f32x8, false, UNIT>(a, phi)),
+            bits(depth_with_of::<f32x8, false, false>(a, phi)),
+            "density stage: {ctx}"
+        );
+        let phi = depth_phi::<f32x8, true>(a);
+        assert_eq!(
+            bits(depth_with_tame::<f32x8, true, UNIT>(a, phi)),
+            bits(depth_with_of::<f32x8, true, false>(a, phi)),
+            "density stage, Fast tier: {ctx}"
+        );
     }
 
     fn single(b: f32, h0: f32, sigma: [f32; 3]) -> Single {
@@ -1750,7 +1818,12 @@ mod tests {
                             let (_, ok) = depth_args_tame(&s.layer, y_s, u, t, (1.0, -0.0));
                             tame += ok as usize;
                             // Unit directions.
-                            let (a, _) = single_args::<f32x8, 1, true, false, 1>(&s, &p(0.0));
+                            let (a, _, tamed) =
+                                single_args_tamed::<f32x8, 1, true, false, 1>(&s, &p(0.0));
+                            assert_eq!(tamed, ok, "{}", ctx());
+                            if tamed {
+                                same_depth::<true>(&a, &ctx());
+                            }
                             let g = single_args_general::<f32x8, 1, true, 1>(&s, &p(0.0));
                             assert_eq!(finish::<false>(&s, a), finish::<false>(&s, g), "{}", ctx());
                             assert_eq!(
@@ -1761,7 +1834,11 @@ mod tests {
                             );
                             // General directions (|d| carried as mantissa and exponent).
                             for dx in [0.6f32, 1e-30, 3e20] {
-                                let (a, _) = single_args::<f32x8, 1, false, false, 1>(&s, &p(dx));
+                                let (a, _, tamed) =
+                                    single_args_tamed::<f32x8, 1, false, false, 1>(&s, &p(dx));
+                                if tamed {
+                                    same_depth::<false>(&a, &ctx());
+                                }
                                 let g = single_args_general::<f32x8, 1, false, 1>(&s, &p(dx));
                                 assert_eq!(
                                     finish::<false>(&s, a),

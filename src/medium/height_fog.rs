@@ -361,6 +361,23 @@ pub(crate) fn depth_with<L: Lane, const FAST: bool>(
     }
 }
 
+/// [`depth_with_of`]`::<L, FAST, false>` for arguments from [`depth_args_tame`] (guard 0;
+/// exponent −0 where `UNIT`, the exponent of |d| = 1), with the same bits: m·φ·e^(−u_min)
+/// is positive, so adding the guard +0 changes nothing, nor does adding −0 to the
+/// exponent.
+#[inline(always)]
+pub(crate) fn depth_with_tame<L: Lane, const FAST: bool, const UNIT: bool>(
+    a: &DepthArgs<L>,
+    phi: L,
+) -> (L, L) {
+    let (em, ek) = if FAST {
+        exp_split_fast(a.neg_u_min)
+    } else {
+        exp_split(a.neg_u_min)
+    };
+    (a.m * phi * em, if UNIT { ek } else { a.e + ek })
+}
+
 /// [`depth_with`] for a homogeneous layer (`HOMOGENEOUS`, b = 0) or not.
 #[inline(always)]
 pub(crate) fn depth_with_of<L: Lane, const FAST: bool, const HOMOGENEOUS: bool>(
