@@ -1044,10 +1044,10 @@ fn run_single<
         } else {
             depth_stages::<L, FAST>(kind, &args[..m], &mut phis, &mut depth);
         }
-        // T without τ, three channels sharing one pair of scale factors: one loop forms
-        // τ_c from one value per packet (see `shared_depth`).
+        // T without τ, for a grey layer or three channels sharing one pair of scale
+        // factors: one loop forms τ from one value per packet (see `shared_depth`).
         let shared_block = !L::NATIVE_SCALE
-            && single.tau_kind == 1
+            && single.tau_kind < 2
             && o_tau.is_none()
             && (WANT_T || WANT_L)
             && shared_depth(single, &depth[..m], &mut gs);
@@ -1087,7 +1087,34 @@ fn run_single<
                 _ => tau_loop!(2),
             }
         }
-        if shared_block {
+        if shared_block && single.grey {
+            // One exponential, stored to the three channels.
+            let k = L::splat(single.layer.sigma[0].m);
+            let w = m * L::LANES;
+            let pairs = gs[..m].iter().zip(trans[..m].iter_mut());
+            match o_tr.as_mut() {
+                Some([d0, d1, d2]) => {
+                    let chunks = d0[i..i + w]
+                        .chunks_exact_mut(L::LANES)
+                        .zip(d1[i..i + w].chunks_exact_mut(L::LANES))
+                        .zip(d2[i..i + w].chunks_exact_mut(L::LANES));
+                    for ((&g, tr_k), ((a, b), c)) in pairs.zip(chunks) {
+                        let tr = single_trans::<L, FAST>(g * k);
+                        tr.store(a);
+                        tr.store(b);
+                        tr.store(c);
+                        if WANT_L {
+                            *tr_k = [tr; 3];
+                        }
+                    }
+                }
+                None => {
+                    for (&g, tr_k) in pairs {
+                        *tr_k = [single_trans::<L, FAST>(g * k); 3];
+                    }
+                }
+            }
+        } else if shared_block {
             // The three channels in one loop: one load of g per packet.
             let mc = single.shared.1.map(L::splat);
             let w = m * L::LANES;
@@ -1214,18 +1241,22 @@ fn run_single<
     }
 }
 
-/// For a block whose layer has a shared scale (`tau_kind` 1) and whose τ is not stored:
-/// writes g = gm·2^e per packet, (gm, ge) being the geometric depth, e =
-/// ge + e_s (e_s the shared exponent) clamped to [−64, 64], so that the T loop forms
-/// τ_c = g·m_c from one value per packet, where `single_tau` would store three (with the
-/// three channels in one loop, 6.36 → 5.88 ns per ray in `hotloop unit typical` on Zen
-/// 1). Returns false (the block takes `single_tau`) if some e is NaN.
+/// For a block whose τ is not stored, of a grey layer (`tau_kind` 0: σ = m_σ·2^e_σ) or
+/// one whose channels share a scale (`tau_kind` 1: σ_c = m_c·2^e_s): writes g = gm·2^e
+/// per packet, (gm, ge) being the geometric depth, e = ge + e_σ or ge + e_s clamped to
+/// [−64, 64], so that the T loop forms τ_c = g·m_c from one value per packet, where
+/// `single_tau` would store three (with the three channels in one loop, 6.36 → 5.88 ns
+/// per ray in `hotloop unit typical` on Zen 1). Returns false (the block takes
+/// `single_tau`) if some e is NaN.
 ///
-/// T has the same bits as from `single_tau`'s τ_c = (gm·s1)·m_c·s2 (`pow2_pair`),
-/// since gm < 2^32, gm ≥ 2^-32 or gm = 0 (m·φ·e^(−u_min) with φ ≥ 2^-11; m in [1, 4) or
-/// the tame stage's [2^-20, 2^31]), and a non-zero m_c is in [2^-16, 2) (`shared_scale`):
-/// - for |e| ≤ 64, `pow2_pair` gives s1 = 2^e and s2 = 1: the same products of the same
-///   values;
+/// T has the same bits as from `single_tau`, since gm < 2^32, gm ≥ 2^-32 or gm = 0
+/// (m·φ·e^(−u_min) with φ ≥ 2^-11; m in [1, 4) or the tame stage's [2^-20, 2^31]), m_σ
+/// is in [1, 2) (`frexp`) and a non-zero m_c in [2^-16, 2) (`shared_scale`):
+/// - for |e| ≤ 64, `pow2_pair` gives s1 = 2^e and s2 = 1. Shared scale: `single_tau`'s
+///   τ_c = (gm·s1)·m_c·s2 is the same products of the same values. Grey: its
+///   τ = `ldexp`(gm·m_σ, e) = round(gm·m_σ)·2^e, and g·m_σ = round(gm·2^e·m_σ) is the
+///   same number, since every value here is normal (≥ 2^-96, ≤ 2^97), where scaling by
+///   2^e commutes with rounding;
 /// - for e < −64 both τ are below 2^32·2^-64·2 = 2^-31, where `exp_neg` and
 ///   `exp_neg_fast` give 1 (1 − τ rounds to 1 below 2^-25);
 /// - for e > 64 both τ are at least 2^-32·2^64·2^-16 = 2^16 (or 0 in both where m_c or
@@ -1233,7 +1264,11 @@ fn run_single<
 /// - a NaN gm gives the same NaN in both (the first operand of each product).
 #[inline(always)]
 fn shared_depth<L: Lane>(single: &Single, depth: &[(L, L)], gs: &mut [L; BLOCK]) -> bool {
-    let es = L::splat(single.shared.0);
+    let es = L::splat(if single.grey {
+        single.layer.sigma[0].e
+    } else {
+        single.shared.0
+    });
     // The sum of the exponents is NaN if one is (each is below 2^23 in magnitude).
     let mut sum = L::splat(0.0);
     for (g, &(gm, ge)) in gs.iter_mut().zip(depth) {
@@ -1694,8 +1729,8 @@ mod tests {
     /// `shared_depth` (T without τ) against `single_tau`: the same T bits, both tiers,
     /// for depths (gm, ge) over the whole range the kernel produces (gm < 2^32, ≥ 2^-32
     /// or 0, NaN), with the scale exponent e = ge + e_s on both sides of ±64 and far
-    /// beyond, and σ sets with a zero channel and channels 2^16 apart; a NaN exponent
-    /// makes the block fall back.
+    /// beyond, σ sets with a zero channel and channels 2^16 apart, and grey ones (zero
+    /// included); a NaN exponent makes the block fall back.
     #[test]
     fn shared_depth_gives_the_transmittance_of_single_tau() {
         let two = |e: i32| 2.0f32.powi(e);
@@ -1717,21 +1752,37 @@ mod tests {
             [1.0, 1.0 / 65536.0, 0.7],
             [3e30, 2e30, 1e30],
             [0.0, 0.0, 1e-3],
+            // Grey (`tau_kind` 0).
+            [0.02; 3],
+            [1e-30; 3],
+            [3e30; 3],
+            [1.0; 3],
+            [0.0; 3],
         ];
         let mut checked = [0usize; 3];
         for sigma in sigmas {
             let s = single(0.1, 0.0, sigma);
-            assert_eq!(s.tau_kind, 1, "{sigma:?}");
-            let es = s.shared.0 as i32;
+            let grey = sigma[0] == sigma[1] && sigma[1] == sigma[2];
+            assert_eq!(s.tau_kind, if grey { 0 } else { 1 }, "{sigma:?}");
+            let (es, mc) = if grey {
+                (s.layer.sigma[0].e, [s.layer.sigma[0].m; 3])
+            } else {
+                s.shared
+            };
+            let es = es as i32;
             for &gm in &gms {
                 for e in (-200..=200).chain([-2_000_000, 2_000_000]) {
                     let ge = (e - es) as f32;
                     let depth = [(f32x8::splat(gm), f32x8::splat(ge)); BLOCK];
                     let mut gs = [f32x8::splat(0.0); BLOCK];
                     assert!(shared_depth(&s, &depth, &mut gs));
-                    let tau = single_tau::<f32x8, 1>(&s, depth[0]);
+                    let tau = if grey {
+                        single_tau::<f32x8, 0>(&s, depth[0])
+                    } else {
+                        single_tau::<f32x8, 1>(&s, depth[0])
+                    };
                     for ch in 0..3 {
-                        let tau_c = gs[0] * f32x8::splat(s.shared.1[ch]);
+                        let tau_c = gs[0] * f32x8::splat(mc[ch]);
                         let bits = |x: f32x8| {
                             let x = x.to_array()[0];
                             if x.is_nan() {
