@@ -1087,60 +1087,45 @@ fn run_single<
                 _ => tau_loop!(2),
             }
         }
+        // The T loop of a shared block: `$f` gives the three channels' T from g, with
+        // one load of g per packet.
+        macro_rules! shared_t_loop {
+            ($f:expr) => {{
+                let f = $f;
+                let w = m * L::LANES;
+                let pairs = gs[..m].iter().zip(trans[..m].iter_mut());
+                match o_tr.as_mut() {
+                    Some([d0, d1, d2]) => {
+                        let chunks = d0[i..i + w]
+                            .chunks_exact_mut(L::LANES)
+                            .zip(d1[i..i + w].chunks_exact_mut(L::LANES))
+                            .zip(d2[i..i + w].chunks_exact_mut(L::LANES));
+                        for ((&g, tr_k), ((a, b), c)) in pairs.zip(chunks) {
+                            let tr: [L; 3] = f(g);
+                            tr[0].store(a);
+                            tr[1].store(b);
+                            tr[2].store(c);
+                            if WANT_L {
+                                *tr_k = tr;
+                            }
+                        }
+                    }
+                    None => {
+                        for (&g, tr_k) in pairs {
+                            *tr_k = f(g);
+                        }
+                    }
+                }
+            }};
+        }
         if shared_block && single.grey {
-            // One exponential, stored to the three channels.
+            // One exponential for the three channels.
             let k = L::splat(single.layer.sigma[0].m);
-            let w = m * L::LANES;
-            let pairs = gs[..m].iter().zip(trans[..m].iter_mut());
-            match o_tr.as_mut() {
-                Some([d0, d1, d2]) => {
-                    let chunks = d0[i..i + w]
-                        .chunks_exact_mut(L::LANES)
-                        .zip(d1[i..i + w].chunks_exact_mut(L::LANES))
-                        .zip(d2[i..i + w].chunks_exact_mut(L::LANES));
-                    for ((&g, tr_k), ((a, b), c)) in pairs.zip(chunks) {
-                        let tr = single_trans::<L, FAST>(g * k);
-                        tr.store(a);
-                        tr.store(b);
-                        tr.store(c);
-                        if WANT_L {
-                            *tr_k = [tr; 3];
-                        }
-                    }
-                }
-                None => {
-                    for (&g, tr_k) in pairs {
-                        *tr_k = [single_trans::<L, FAST>(g * k); 3];
-                    }
-                }
-            }
+            shared_t_loop!(|g: L| [single_trans::<L, FAST>(g * k); 3]);
         } else if shared_block {
-            // The three channels in one loop: one load of g per packet.
+            // The three channels in one loop.
             let mc = single.shared.1.map(L::splat);
-            let w = m * L::LANES;
-            let pairs = gs[..m].iter().zip(trans[..m].iter_mut());
-            match o_tr.as_mut() {
-                Some([d0, d1, d2]) => {
-                    let chunks = d0[i..i + w]
-                        .chunks_exact_mut(L::LANES)
-                        .zip(d1[i..i + w].chunks_exact_mut(L::LANES))
-                        .zip(d2[i..i + w].chunks_exact_mut(L::LANES));
-                    for ((&g, tr_k), ((a, b), c)) in pairs.zip(chunks) {
-                        let tr = mc.map(|k| single_trans::<L, FAST>(g * k));
-                        tr[0].store(a);
-                        tr[1].store(b);
-                        tr[2].store(c);
-                        if WANT_L {
-                            *tr_k = tr;
-                        }
-                    }
-                }
-                None => {
-                    for (&g, tr_k) in pairs {
-                        *tr_k = mc.map(|k| single_trans::<L, FAST>(g * k));
-                    }
-                }
-            }
+            shared_t_loop!(|g: L| mc.map(|k| single_trans::<L, FAST>(g * k)));
         } else if WANT_T || WANT_L {
             // One channel at a time: the exponential's constants stay in registers. Each
             // value goes straight to the caller's array (the block's part of it, in
