@@ -232,7 +232,7 @@ pub(crate) fn eval_packet<
     single: &Single,
     p: &PacketIn<L>,
 ) -> PacketOut<L> {
-    let (args, dir) = match falloff_kind(&single.layer) {
+    let (args, dir, _) = match falloff_kind(&single.layer) {
         0 => single_args::<L, AXIS, UNIT, WANT_L, 0>(single, p),
         1 => single_args::<L, AXIS, UNIT, WANT_L, 1>(single, p),
         _ => single_args::<L, AXIS, UNIT, WANT_L, 2>(single, p),
@@ -273,25 +273,11 @@ pub(crate) fn eval_packet<
 /// the general arithmetic (its frexp is cheap on scalar registers, and a branch per ray
 /// made `transmittance_rgb/scalar` 5 % slower), which also makes the suites'
 /// bit-for-bit comparisons of the scalar and vector paths a check of the tame path.
-#[inline(always)]
-pub(crate) fn single_args<
-    L: Lane,
-    const AXIS: usize,
-    const UNIT: bool,
-    const WANT_L: bool,
-    const KIND: u8,
->(
-    single: &Single,
-    p: &PacketIn<L>,
-) -> (DepthArgs<L>, [L; 3]) {
-    let (args, dir, _) = single_args_tamed::<L, AXIS, UNIT, WANT_L, KIND>(single, p);
-    (args, dir)
-}
-
-/// [`single_args`], and whether the packet took the tame path (then its guard is 0, and
+///
+/// The third value says whether the packet took the tame path (then its guard is 0, and
 /// its exponent −0 for unit directions: see [`depth_with_tame`]).
 #[inline(always)]
-pub(crate) fn single_args_tamed<
+pub(crate) fn single_args<
     L: Lane,
     const AXIS: usize,
     const UNIT: bool,
@@ -1021,7 +1007,7 @@ fn run_single<
                         t: L::load(t),
                     };
                     let (args_k, dir_k, tame_k) =
-                        single_args_tamed::<L, AXIS, UNIT, WANT_L, $kind>(single, &p);
+                        single_args::<L, AXIS, UNIT, WANT_L, $kind>(single, &p);
                     all_tame &= tame_k;
                     *a = args_k;
                     if !UNIT {
@@ -1498,7 +1484,7 @@ fn eval_block<L: Lane, const AXIS: usize, const UNIT: bool, const FAST: bool>(
     macro_rules! args_loop {
         ($kind:literal) => {
             for ((a, dir), p) in args.iter_mut().zip(dirs.iter_mut()).zip(ins) {
-                (*a, *dir) = single_args::<L, AXIS, UNIT, true, $kind>(single, p);
+                (*a, *dir, _) = single_args::<L, AXIS, UNIT, true, $kind>(single, p);
             }
         };
     }
@@ -1856,7 +1842,7 @@ mod tests {
                             tame += ok as usize;
                             // Unit directions.
                             let (a, _, tamed) =
-                                single_args_tamed::<f32x8, 1, true, false, 1>(&s, &p(0.0));
+                                single_args::<f32x8, 1, true, false, 1>(&s, &p(0.0));
                             assert_eq!(tamed, ok, "{}", ctx());
                             if tamed {
                                 same_depth::<true>(&a, &ctx());
@@ -1872,7 +1858,7 @@ mod tests {
                             // General directions (|d| carried as mantissa and exponent).
                             for dx in [0.6f32, 1e-30, 3e20] {
                                 let (a, _, tamed) =
-                                    single_args_tamed::<f32x8, 1, false, false, 1>(&s, &p(dx));
+                                    single_args::<f32x8, 1, false, false, 1>(&s, &p(dx));
                                 if tamed {
                                     same_depth::<false>(&a, &ctx());
                                 }
