@@ -540,6 +540,8 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     // The third stage takes the buffer's own layout (full packets of an interleaved RGB
     // row with at most one phase function).
     let rgb3 = R::RGB3 && PH < 2;
+    // Every packet of the block is full (all blocks but a row's padded tail).
+    let full_block = last_n == n_lanes;
     // 1. Geometry: y' = −Δ·log2(e) (away from 0), n·t, and the phase value or fog colour.
     // Column indices, exact in f32 (width ≤ 2^24), stepped by N: the values
     // `FramePlan::ray` forms from x0 + k.
@@ -562,9 +564,12 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
         *y = yv;
         *g = nt;
         if PH == 1 {
-            *p = hp.phases[0].eval(d, inv_n, hp.beta);
-            if rgb3 {
-                *p3 = p.expand3();
+            let pv = hp.phases[0].eval(d, inv_n, hp.beta);
+            // A full block of an interleaved RGB row reads only the expanded value.
+            if rgb3 && full_block {
+                *p3 = pv.expand3();
+            } else {
+                *p = pv;
             }
         } else if PH > 1 {
             *c = colour(hp, d, inv_n);
@@ -574,9 +579,11 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     // 2. g' = n·t·exp2m1(y')/y' (= n·t·E(Δ)·ln 2), clamped to f32::MAX so that K_c = 0
     // gives 0, not 0·∞.
     for ((g, g3), &y) in gs.iter_mut().zip(gs3.iter_mut()).zip(ys.iter()) {
-        *g = Lane::min(W::splat(f32::MAX), (exp2m1(y) / y) * *g);
-        if rgb3 && !GREY {
-            *g3 = g.expand3();
+        let gv = Lane::min(W::splat(f32::MAX), (exp2m1(y) / y) * *g);
+        if rgb3 && !GREY && full_block {
+            *g3 = gv.expand3();
+        } else {
+            *g = gv;
         }
     }
     // 3. T = e^(−τ_c) = 2^(k2_c·g'), L_in = colour · (1 − T), L ← L·T + L_in.
@@ -589,7 +596,7 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
         .enumerate()
     {
         let n = if k + 1 == m { last_n } else { n_lanes };
-        if rgb3 && n == n_lanes {
+        if rgb3 && full_block {
             let t = if GREY {
                 trans(W::splat(kk[0]) * g).expand3()
             } else {
