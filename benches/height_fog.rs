@@ -1,6 +1,7 @@
 //! Height fog throughput: x8, scalar and the seeds' naive formula, on the two data sets of
-//! `../shared/peers/c-libmvec/height_fog.c` (same generator, same seed, same medium), in
-//! cache (64K rays) and streaming (16M rays), single thread and rayon, RGB transmittance
+//! `../shared/peers/c-libmvec/height_fog.c` (same generator, same seed, same medium) and,
+//! in cache, two sets extreme for this crate's ranges (`sky`, `stiff`:
+//! [`make_crate_extreme`]), in cache (64K rays) and streaming (16M rays), single thread and rayon, RGB transmittance
 //! alone and full radiance.
 //!
 //! `cargo bench --bench height_fog` (all), or a filter such as
@@ -37,6 +38,39 @@ pub fn make(n: usize, extreme: bool) -> RaySet {
         d: [p.dx(), p.dy, z],
         t: p.t,
     }
+}
+
+/// Data that is extreme for this crate's own ranges rather than the peer's (the peer's
+/// extreme set stays inside the kernel's tame first stage, `README`, "Speed"):
+/// - `sky`: the typical set's rays with t = +∞ (a renderer's sky pixels; looking down,
+///   τ = +∞ and T = 0);
+/// - `stiff`: each ray one of four kinds at random: t = +∞; t from 1e9 to 1e12 (|Δ| far
+///   beyond 256 unless the ray is nearly level); t from 1e-9 to 1e-7 (|d|·t below 2^-20);
+///   a camera 1e4 above or 1e3 below the base (the density at the camera under- or
+///   overflows f32) with a typical t.
+pub fn make_crate_extreme(n: usize, stiff: bool) -> RaySet {
+    let mut r = make(n, false);
+    if !stiff {
+        r.t.iter_mut().for_each(|t| *t = f32::INFINITY);
+        return r;
+    }
+    let mut s: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut uni = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        ((s >> 40) as f64 * (1.0 / 16777216.0)) as f32
+    };
+    for i in 0..n {
+        let kind = (uni() * 4.0) as u32;
+        match kind {
+            0 => r.t[i] = f32::INFINITY,
+            1 => r.t[i] = 1e9 * 1e3f32.powf(uni()),
+            2 => r.t[i] = 1e-9 * 1e2f32.powf(uni()),
+            _ => r.o[1][i] = if uni() < 0.5 { 1e4 } else { -1e3 },
+        }
+    }
+    r
 }
 
 fn scene(full: bool) -> Scene {
@@ -127,8 +161,11 @@ fn in_cache(c: &mut Criterion) {
         g.throughput(Throughput::Elements(n as u64));
         g.warm_up_time(Duration::from_millis(500));
         g.measurement_time(Duration::from_secs(2));
-        for (set, extreme) in [("typical", false), ("extreme", true)] {
-            let r = make(n, extreme);
+        for set in ["typical", "extreme", "sky", "stiff"] {
+            let r = match set {
+                "typical" | "extreme" => make(n, set == "extreme"),
+                _ => make_crate_extreme(n, set == "stiff"),
+            };
             let mut o = Out::new(n);
             g.bench_function(BenchmarkId::new("x8_unit", set), |b| {
                 b.iter(|| sc.evaluate(&rays(&r, true), o.outputs(full)).unwrap())
