@@ -12,8 +12,8 @@ use crate::light::PhaseEval;
 use crate::math::{exp_neg, exp_neg_fast, ldexp, pow2_pair, Lane};
 use crate::medium::distance::DistancePlan;
 use crate::medium::height_fog::{
-    depth_args_of, depth_args_tame, depth_of, depth_phi, depth_with_of, depth_with_tame,
-    direction_norm, falloff_kind, layer_depth, DepthArgs, RayGeom, TWO_M64,
+    depth_args_of, depth_args_tame, depth_args_tame_sky, depth_of, depth_phi, depth_with_of,
+    depth_with_tame, direction_norm, falloff_kind, layer_depth, DepthArgs, RayGeom, TWO_M64,
 };
 use crate::medium::volume::{clamp_colour, Entry};
 use crate::ray::{Outputs, Rays};
@@ -268,14 +268,15 @@ pub(crate) fn eval_packet<
 /// packet whose rays all stay within `depth_args_tame`'s bounds takes the arguments
 /// from it (no frexp, no exponent sums): the same bits after stage 3, for 55 instead of
 /// 93 instructions per 8-lane packet on the C peer's rays. Other packets (a segment
-/// shorter than 2^-20, longer than 2^31 or infinite, |Δ| ≥ 256, a non-finite input)
+/// shorter than 2^-20, longer than 2^31, |Δ| ≥ 256, t = +∞ with |b·u| outside
+/// [2^-12, 2^12), a non-finite input)
 /// take the general arithmetic, so such data cost at most the general path's time. Vector lanes only: the scalar path keeps
 /// the general arithmetic (its frexp is cheap on scalar registers, and a branch per ray
 /// made `transmittance_rgb/scalar` 5 % slower), which also makes the suites'
 /// bit-for-bit comparisons of the scalar and vector paths a check of the tame path.
 ///
-/// The third value says whether the packet took the tame path (then its guard is 0, and
-/// its exponent −0 for unit directions: see [`depth_with_tame`]).
+/// The third value says whether the packet took the tame path without sky lanes (then
+/// its guard is 0, and its exponent −0 for unit directions: see [`depth_with_tame`]).
 #[inline(always)]
 pub(crate) fn single_args<
     L: Lane,
@@ -291,9 +292,15 @@ pub(crate) fn single_args<
     let dir_out = if WANT_L { dir } else { [L::splat(0.0); 3] };
     if KIND == 1 && AXIS < GENERAL && L::LANES > 1 {
         let y_s = height_scaled::<L, AXIS>(p);
-        let (args, ok) = depth_args_tame(&single.layer, y_s, p.d[AXIS], p.t, norm);
+        let u = p.d[AXIS];
+        let tame = depth_args_tame(&single.layer, y_s, u, p.t, norm);
+        if !L::any(!tame.1) {
+            return (tame.0, dir_out, true);
+        }
+        // Sky lanes (t = +∞) of a packet the plain tame stage rejected.
+        let (args, ok) = depth_args_tame_sky(&single.layer, y_s, u, p.t, norm, tame);
         if !L::any(!ok) {
-            return (args, dir_out, true);
+            return (args, dir_out, false);
         }
     }
     let geom = packet_geom::<L, AXIS>(single.up, p, norm, &dir);
@@ -1800,7 +1807,16 @@ mod tests {
     fn tame_stage_one_gives_the_general_bits() {
         let two = |e: i32| 2.0f32.powi(e);
         let ts = edge_values(&[two(-20), two(31), two(-59), 256.0]);
-        let us = edge_values(&[two(-59), two(-90), two(-126), 256.0, two(-62)]);
+        // (2^∓12/0.1: the sky lanes' bounds on |b·u| for the first layer.)
+        let us = edge_values(&[
+            two(-59),
+            two(-90),
+            two(-126),
+            256.0,
+            two(-62),
+            two(-12) / 0.1,
+            two(12) / 0.1,
+        ]);
         let ys = edge_values(&[two(-62), two(-60), two(64), two(100)]);
         // (b, h0): typical, negative, tiny and the largest of KIND 1; base heights that
         // make y − h0 cancel or leave the scaled range.
@@ -1818,7 +1834,7 @@ mod tests {
             [1e-20, 1.0, 1e20],
             [1e-38, 2e-38, 0.0],
         ];
-        let (mut tame, mut total) = (0usize, 0usize);
+        let (mut tame, mut sky, mut total) = (0usize, 0usize, 0usize);
         for &(b, h0) in &layers {
             for sigma in sigmas {
                 let s = single(b, h0, sigma);
@@ -1838,12 +1854,16 @@ mod tests {
                             };
                             total += 1;
                             let y_s = y * TWO_M64;
-                            let (_, ok) = depth_args_tame(&s.layer, y_s, u, t, (1.0, -0.0));
+                            let norm = (1.0, -0.0);
+                            let plain = depth_args_tame(&s.layer, y_s, u, t, norm);
+                            let (_, ok) = depth_args_tame_sky(&s.layer, y_s, u, t, norm, plain);
                             tame += ok as usize;
+                            let plain = plain.1;
+                            sky += (ok && !plain) as usize;
                             // Unit directions.
                             let (a, _, tamed) =
                                 single_args::<f32x8, 1, true, false, 1>(&s, &p(0.0));
-                            assert_eq!(tamed, ok, "{}", ctx());
+                            assert_eq!(tamed, ok && plain, "{}", ctx());
                             if tamed {
                                 same_depth::<true>(&a, &ctx());
                             }
@@ -1875,10 +1895,10 @@ mod tests {
                 }
             }
         }
-        // Both paths were exercised.
+        // Both paths, and the tame one's sky lanes, were exercised.
         assert!(
-            tame > total / 20 && tame < total / 2,
-            "{tame} of {total} tame"
+            tame > total / 20 && tame < total / 2 && sky > total / 1000,
+            "{tame} of {total} tame, {sky} of them sky"
         );
     }
 

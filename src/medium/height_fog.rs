@@ -278,13 +278,20 @@ const TAME_M_MIN: f32 = 9.536_743e-7; // 2^-20
 const TAME_M_MAX: f32 = 2_147_483_648.0; // 2^31
 const TAME_DELTA_MAX: f32 = 256.0;
 const TAME_NEG_DELTA: f32 = -1.734_723_5e-18; // -2^-59
+/// Sky lanes of [`depth_args_tame`] (t = +∞): |b·u| in [2^-12, 2^12), and the power of two
+/// 2^SKY_SHIFT that scales it into φ's argument.
+const TAME_SKY_MIN: f32 = 2.441_406_3e-4; // 2^-12
+const TAME_SKY_MAX: f32 = 4096.0; // 2^12
+const SKY_SHIFT: f32 = 131_072.0; // 2^17
+const SKY_SHIFT_EXP: f32 = 17.0;
 
 /// [`depth_args_of`]`::<L, 1>` (0 < |b| ≤ 2^40) for an axis-aligned up vector, on plain
 /// f32 without the mantissa/exponent bookkeeping (no frexp of u and t, no exponent sums,
 /// no power-of-two scalings of Δ): `y`, `u` and `t` are the height, the up component of
 /// d and the segment end, `norm` is |d| as (n_m, n_e). Returns the arguments and the
 /// lanes where they are valid; the caller uses them only if every lane is (the batch
-/// kernel decides per packet, so that extreme data keep their speed).
+/// kernel decides per packet, so that extreme data keep their speed; t = +∞:
+/// [`depth_args_tame_sky`]).
 ///
 /// Where the mask is set, `depth_of` and the `ldexp` of stage 3 give the same bits as
 /// from [`depth_args_of`] (tested against it in `kernel::tests`), because the two differ
@@ -302,6 +309,7 @@ const TAME_NEG_DELTA: f32 = -1.734_723_5e-18; // -2^-59
 /// - the height term b·(y·2^-64 − h0·2^-64) is formed by the same operations;
 /// - the guard is 0: t is finite and positive, y is finite (checked), and u is finite
 ///   because b·u·t is finite with t > 0.
+///
 #[inline(always)]
 pub(crate) fn depth_args_tame<L: Lane>(
     layer: &LayerCore,
@@ -329,6 +337,45 @@ pub(crate) fn depth_args_tame<L: Lane>(
         guard: L::splat(0.0),
     };
     (args, ok)
+}
+
+/// [`depth_args_tame`]'s arguments with its sky lanes patched in, for a packet where it
+/// rejected some lane: sky lanes (t = +∞, |b·u| in [2^-12, 2^12), y finite) give the
+/// same bits after stage 3 as the general path, by the same argument. There the general
+/// path has t = 1·2^(2^21), φ's argument |dm|·2^8 with dm = b_m·u_m rounded (≥ 256,
+/// beyond the 30 above which `exprel_neg` returns N/x for one constant N), m = n_m and the
+/// exponent n_e + 8 − e_b − e_u; here φ's argument is |b·u|·2^17 (in [32, 2^29)), so φ is
+/// the general one times 2^(8 − 17 − e_b − e_u) exactly (b·u = dm·2^(e_b + e_u), normal),
+/// and the exponent n_e + 17 makes up for it. G = m·φ·e^(−u_min) stays in [2^-30, 2^-2]
+/// (inside `shared_depth`'s [2^-32, 2^32) and, times a channel's mantissa, `ldexp`'s
+/// precondition). The density's exponent, as `depth_args_tame` formed it, is the general
+/// one: Δ·2^-64 = ±∞ here, where the general path has ±|dm|·2^127, so min(Δ·2^-64, 0) is
+/// 0 (b·u > 0) or makes u_min −∞ in both (b·u < 0: |b·y0·2^-64| ≤ 2^104 cannot offset
+/// it; then τ = +∞, T = 0). Returns the arguments and the lanes where they are valid.
+/// The exponent of a sky lane is not n_e, so [`depth_with_tame`]'s shortcut does not
+/// apply to such packets.
+#[inline(always)]
+pub(crate) fn depth_args_tame_sky<L: Lane>(
+    layer: &LayerCore,
+    y_s: L,
+    u: L,
+    t: L,
+    norm: (L, L),
+    tame: (DepthArgs<L>, L::Mask),
+) -> (DepthArgs<L>, L::Mask) {
+    let (args, ok) = tame;
+    let abu = (L::splat(layer.b) * u).abs();
+    let sky = t.eq(L::splat(f32::INFINITY))
+        & abu.ge(L::splat(TAME_SKY_MIN))
+        & abu.lt(L::splat(TAME_SKY_MAX))
+        & y_s.abs().le(L::splat(f32::MAX));
+    let args = DepthArgs {
+        dc: L::select(sky, abu * L::splat(SKY_SHIFT), args.dc),
+        m: L::select(sky, norm.0, args.m),
+        e: L::select(sky, norm.1 + L::splat(SKY_SHIFT_EXP), args.e),
+        ..args
+    };
+    (args, ok | sky)
 }
 
 /// The second half of [`layer_depth`]: φ(|Δ|) and e^(−u_min), and G assembled.
