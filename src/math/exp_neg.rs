@@ -26,8 +26,8 @@ pub fn exp_neg<L: Lane>(x: L) -> L {
     let x = L::splat(88.0).min(x);
     let (k, w) = reduce_ln2_neg(x);
     // e^r = 1 + r + r^2 Q(r) with r = -w, as 1 + w·(w·Q(−w) − 1): no w² (which is
-    // subnormal for w < 2^-63, a microcode assist on some CPUs, 1.6× the time of a whole
-    // batch of tiny τ on Zen 1), one operation fewer, and more accurate (see above).
+    // subnormal for w < 2^-63, a microcode assist on some CPUs: a `stiff` batch, a quarter
+    // of it such τ, took 1.6× a typical one on Zen 1), one operation fewer, and more accurate (see above).
     let p = w.mul_add(w.mul_sub(q4_signed(w, -1.0), L::splat(1.0)), L::splat(1.0));
     p * L::pow2i(k)
 }
