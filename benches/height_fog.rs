@@ -1,8 +1,8 @@
 //! Height fog throughput: x8, scalar and the seeds' naive formula, on the two data sets of
-//! `../shared/peers/c-libmvec/height_fog.c` (same generator, same seed, same medium) and,
-//! in cache, two sets extreme for this crate's ranges (`sky`, `stiff`:
-//! [`make_crate_extreme`]), in cache (64K rays) and streaming (16M rays), single thread and rayon, RGB transmittance
-//! alone and full radiance.
+//! `../shared/peers/c-libmvec/height_fog.c` (same generator, same seed, same medium), in
+//! cache (64K rays) and streaming (16M rays), single thread and rayon, RGB transmittance
+//! alone and full radiance; in cache also on two sets extreme for this crate's own ranges
+//! (`sky`, `stiff`: [`make_crate_extreme`]).
 //!
 //! `cargo bench --bench height_fog` (all), or a filter such as
 //! `cargo bench --bench height_fog -- transmittance_rgb`.
