@@ -31,8 +31,11 @@ pub struct RaySet {
 /// The C peer's data sets (`analytic_fog::reference::peer`; the peer only uses oy, dy and
 /// t; ox = oz = 0 and dx = sqrt(1 - dy^2), dz = 0 make the same rays unit length in 3-D).
 pub fn make(n: usize, extreme: bool) -> RaySet {
-    let p = PeerRays::new(n, extreme);
-    let z = vec![0.0; n];
+    ray_set(PeerRays::new(n, extreme))
+}
+
+fn ray_set(p: PeerRays) -> RaySet {
+    let z = vec![0.0; p.t.len()];
     RaySet {
         o: [z.clone(), p.oy.clone(), z.clone()],
         d: [p.dx(), p.dy, z],
@@ -40,37 +43,9 @@ pub fn make(n: usize, extreme: bool) -> RaySet {
     }
 }
 
-/// Data that is extreme for this crate's own ranges rather than the peer's (the peer's
-/// extreme set stays inside the kernel's tame first stage, `README`, "Speed"):
-/// - `sky`: the typical set's rays with t = +∞ (a renderer's sky pixels; looking down,
-///   τ = +∞ and T = 0);
-/// - `stiff`: each ray one of four kinds at random: t = +∞; t from 1e9 to 1e12 (|Δ| far
-///   beyond 256 unless the ray is nearly level); t from 1e-9 to 1e-7 (|d|·t below 2^-20);
-///   a camera 1e4 above or 1e3 below the base (the density at the camera under- or
-///   overflows f32) with a typical t.
+/// `PeerRays::crate_extreme` as a [`RaySet`] (`sky`, or `stiff`).
 pub fn make_crate_extreme(n: usize, stiff: bool) -> RaySet {
-    let mut r = make(n, false);
-    if !stiff {
-        r.t.iter_mut().for_each(|t| *t = f32::INFINITY);
-        return r;
-    }
-    let mut s: u64 = 0x9E37_79B9_7F4A_7C15;
-    let mut uni = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        ((s >> 40) as f64 * (1.0 / 16777216.0)) as f32
-    };
-    for i in 0..n {
-        let kind = (uni() * 4.0) as u32;
-        match kind {
-            0 => r.t[i] = f32::INFINITY,
-            1 => r.t[i] = 1e9 * 1e3f32.powf(uni()),
-            2 => r.t[i] = 1e-9 * 1e2f32.powf(uni()),
-            _ => r.o[1][i] = if uni() < 0.5 { 1e4 } else { -1e3 },
-        }
-    }
-    r
+    ray_set(PeerRays::crate_extreme(n, stiff))
 }
 
 fn scene(full: bool) -> Scene {

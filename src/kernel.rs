@@ -12,7 +12,7 @@ use crate::light::PhaseEval;
 use crate::math::{exp_neg, exp_neg_fast, ldexp, pow2_pair, Lane};
 use crate::medium::distance::DistancePlan;
 use crate::medium::height_fog::{
-    depth_args_of, depth_args_tame, depth_args_tame_sky, depth_of, depth_phi, depth_with_of,
+    depth_args_of, depth_args_tame, depth_args_tame_wide, depth_of, depth_phi, depth_with_of,
     depth_with_tame, direction_norm, falloff_kind, layer_depth, DepthArgs, RayGeom, TWO_M64,
 };
 use crate::medium::volume::{clamp_colour, Entry};
@@ -267,16 +267,18 @@ pub(crate) fn eval_packet<
 /// For an axis-aligned up vector and 0 < |b| ≤ 2^40 (`KIND` 1, the common case), a
 /// packet whose rays all stay within `depth_args_tame`'s bounds takes the arguments
 /// from it (no frexp, no exponent sums): the same bits after stage 3, for 55 instead of
-/// 93 instructions per 8-lane packet on the C peer's rays. Other packets (a segment
-/// shorter than 2^-20, longer than 2^31, |Δ| ≥ 256, t = +∞ with |b·u| outside
-/// [2^-12, 2^12), a non-finite input)
-/// take the general arithmetic, so such data cost at most the general path's time. Vector lanes only: the scalar path keeps
+/// 93 instructions per 8-lane packet on the C peer's rays. A packet it rejects tries
+/// `depth_args_tame_wide` (sky lanes, segments from 2^-52 to 2^43, |Δ| up to 2^90; the
+/// benches' `sky` and `stiff` sets take it for every packet); the rest (|b·u| far out
+/// of range, a non-finite input) take the general arithmetic, so such data cost at
+/// most the general path's time. Vector lanes only: the scalar path keeps
 /// the general arithmetic (its frexp is cheap on scalar registers, and a branch per ray
 /// made `transmittance_rgb/scalar` 5 % slower), which also makes the suites'
 /// bit-for-bit comparisons of the scalar and vector paths a check of the tame path.
 ///
-/// The third value says whether the packet took the tame path without sky lanes (then
-/// its guard is 0, and its exponent −0 for unit directions: see [`depth_with_tame`]).
+/// The third value says whether the packet took the plain tame path, no widened lanes
+/// (then its guard is 0, and its exponent −0 for unit directions: see
+/// [`depth_with_tame`]).
 #[inline(always)]
 pub(crate) fn single_args<
     L: Lane,
@@ -298,7 +300,7 @@ pub(crate) fn single_args<
             return (tame.0, dir_out, true);
         }
         // Sky lanes (t = +∞) of a packet the plain tame stage rejected.
-        let (args, ok) = depth_args_tame_sky(&single.layer, y_s, u, p.t, norm, tame);
+        let (args, ok) = depth_args_tame_wide(&single.layer, y_s, u, p.t, norm, tame);
         if !L::any(!ok) {
             return (args, dir_out, false);
         }
@@ -1228,7 +1230,8 @@ fn run_single<
 /// `single_tau`) if some e is NaN.
 ///
 /// T has the same bits as from `single_tau`, since gm < 2^32, gm ≥ 2^-32 or gm = 0
-/// (m·φ·e^(−u_min) with φ ≥ 2^-11; m in [1, 4) or the tame stage's [2^-20, 2^31]), m_σ
+/// (m·φ·e^(−u_min) with φ ≥ 2^-11 and m in [1, 4), or the tame stage's G, in
+/// [2^-31.6, 2^31.6]: see `depth_args_tame` and `depth_args_tame_wide`), m_σ
 /// is in [1, 2) (`frexp`) and a non-zero m_c in [2^-16, 2) (`shared_scale`):
 /// - for |e| ≤ 64, `pow2_pair` gives s1 = 2^e and s2 = 1. Shared scale: `single_tau`'s
 ///   τ_c = (gm·s1)·m_c·s2 is the same products of the same values. Grey: its
@@ -1806,8 +1809,16 @@ mod tests {
     #[test]
     fn tame_stage_one_gives_the_general_bits() {
         let two = |e: i32| 2.0f32.powi(e);
-        let ts = edge_values(&[two(-20), two(31), two(-59), 256.0]);
-        // (2^∓12/0.1: the sky lanes' bounds on |b·u| for the first layer.)
+        let ts = edge_values(&[
+            two(-20),
+            two(31),
+            two(-59),
+            256.0,
+            two(-52),
+            two(43),
+            two(90),
+        ]);
+        // (2^k/0.1: the bounds on |b·u| of the sky and far lanes for the first layer.)
         let us = edge_values(&[
             two(-59),
             two(-90),
@@ -1816,6 +1827,9 @@ mod tests {
             two(-62),
             two(-12) / 0.1,
             two(12) / 0.1,
+            two(-38) / 0.1,
+            two(-29) / 0.1,
+            two(29) / 0.1,
         ]);
         let ys = edge_values(&[two(-62), two(-60), two(64), two(100)]);
         // (b, h0): typical, negative, tiny and the largest of KIND 1; base heights that
@@ -1834,7 +1848,9 @@ mod tests {
             [1e-20, 1.0, 1e20],
             [1e-38, 2e-38, 0.0],
         ];
-        let (mut tame, mut sky, mut total) = (0usize, 0usize, 0usize);
+        let (mut tame, mut total) = (0usize, 0usize);
+        // Lanes the widened stage takes: near (m scaled), far, sky.
+        let mut wide = [0usize; 3];
         for &(b, h0) in &layers {
             for sigma in sigmas {
                 let s = single(b, h0, sigma);
@@ -1856,10 +1872,13 @@ mod tests {
                             let y_s = y * TWO_M64;
                             let norm = (1.0, -0.0);
                             let plain = depth_args_tame(&s.layer, y_s, u, t, norm);
-                            let (_, ok) = depth_args_tame_sky(&s.layer, y_s, u, t, norm, plain);
+                            let (_, ok) = depth_args_tame_wide(&s.layer, y_s, u, t, norm, plain);
                             tame += ok as usize;
                             let plain = plain.1;
-                            sky += (ok && !plain) as usize;
+                            if ok && !plain {
+                                let far = t.is_finite() && (b * u * t).abs() >= 256.0;
+                                wide[if t.is_infinite() { 2 } else { far as usize }] += 1;
+                            }
                             // Unit directions.
                             let (a, _, tamed) =
                                 single_args::<f32x8, 1, true, false, 1>(&s, &p(0.0));
@@ -1876,7 +1895,7 @@ mod tests {
                                 ctx()
                             );
                             // General directions (|d| carried as mantissa and exponent).
-                            for dx in [0.6f32, 1e-30, 3e20] {
+                            for dx in [0.6f32, 1e-30, 3e20, f32::INFINITY, f32::NAN] {
                                 let (a, _, tamed) =
                                     single_args::<f32x8, 1, false, false, 1>(&s, &p(dx));
                                 if tamed {
@@ -1895,10 +1914,11 @@ mod tests {
                 }
             }
         }
-        // Both paths, and the tame one's sky lanes, were exercised.
+        // Both paths, and each kind of the widened stage's lanes, were exercised.
+        eprintln!("{tame} of {total} tame; near, far, sky: {wide:?}");
         assert!(
-            tame > total / 20 && tame < total / 2 && sky > total / 1000,
-            "{tame} of {total} tame, {sky} of them sky"
+            tame > total / 20 && tame < total / 2 && wide.iter().all(|&k| k > total / 1000),
+            "{tame} of {total} tame; near, far, sky: {wide:?}"
         );
     }
 
@@ -1929,6 +1949,35 @@ mod tests {
             let share = tame as f64 / total as f64;
             eprintln!("extreme={extreme}: {tame} of {total} packets of 8 tame ({share:.3})");
             assert_eq!(tame, total, "extreme={extreme}");
+        }
+    }
+
+    /// The widened tame stage (`depth_args_tame_wide`) covers every packet of the
+    /// benches' `sky` and `stiff` sets (`PeerRays::crate_extreme`), so that they run at
+    /// the tame stage's speed; `tame_stage_one_gives_the_general_bits` checks its bits.
+    #[test]
+    fn widened_tame_path_covers_the_crate_extreme_data() {
+        use crate::reference::peer::{PeerRays, BETA, FALLOFF};
+        let s = single(FALLOFF, 0.0, BETA);
+        for stiff in [false, true] {
+            let rays = PeerRays::crate_extreme(65536, stiff);
+            let (mut plain, mut wide, mut total) = (0usize, 0usize, 0usize);
+            for k in (0..rays.t.len()).step_by(8) {
+                let v = |a: &[f32]| f32x8::new(a[k..k + 8].try_into().unwrap());
+                let (y_s, u, t) = (v(&rays.oy) * f32x8::splat(TWO_M64), v(&rays.dy), v(&rays.t));
+                let norm = (f32x8::splat(1.0), f32x8::splat(-0.0));
+                let tame = depth_args_tame(&s.layer, y_s, u, t, norm);
+                plain += tame.1.all() as usize;
+                let (_, ok) = depth_args_tame_wide(&s.layer, y_s, u, t, norm, tame);
+                wide += ok.all() as usize;
+                total += 1;
+            }
+            eprintln!("stiff={stiff}: {plain} plain, {wide} widened of {total} packets");
+            assert!(
+                plain < total / 10,
+                "stiff={stiff}: {plain} of {total} plain"
+            );
+            assert_eq!(wide, total, "stiff={stiff}");
         }
     }
 }

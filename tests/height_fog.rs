@@ -980,3 +980,75 @@ fn phase_functions_normalized_and_in_the_kernel() {
         }
     }
 }
+
+/// One odd ray in packets of rays that the batch kernel's tame first stage takes, plain
+/// or widened (`height_fog::depth_args_tame_wide`: sky, far and near lanes), at every
+/// position of two packets: the odd ray gives NaN in every output where it is invalid,
+/// and every ray the bits of the scalar path (which never takes the tame stage). The
+/// seventeenth session's sky lanes gave τ = +∞, T = 0 for a direction with an infinite
+/// component off the up axis when the other seven lanes were sky rays too.
+#[test]
+fn one_odd_ray_in_tame_packets() {
+    let mut desc = reference::peer::scene_desc();
+    desc.lighting = Lighting {
+        ambient: Vec3::new(0.5, 0.6, 0.7),
+        sun: Some(Sun {
+            direction: Vec3::new(0.3, 0.4, -0.87),
+            radiance: Vec3::new(20.0, 18.0, 15.0),
+        }),
+    };
+    let sc = Scene::new(desc).unwrap();
+    let n = 16;
+    // (kind, t): plain, sky, far (|Δ| ≥ 256), near (|d|·t below 2^-20).
+    let kinds = [
+        ("plain", 50.0),
+        ("sky", f32::INFINITY),
+        ("far", 1e10),
+        ("near", 1e-8),
+    ];
+    type Odd = (&'static str, fn(&mut Ray));
+    let odds: [Odd; 7] = [
+        ("dx = inf", |r| r.1.x = f32::INFINITY),
+        ("dz = -inf", |r| r.1.z = f32::NEG_INFINITY),
+        ("dx = NaN", |r| r.1.x = f32::NAN),
+        ("dy = inf", |r| r.1.y = f32::INFINITY),
+        ("oy = NaN", |r| r.0.y = f32::NAN),
+        ("t = NaN", |r| r.2 = f32::NAN),
+        ("t = -1", |r| r.2 = -1.0),
+    ];
+    for (kind, t) in kinds {
+        let base: Vec<Ray> = (0..n)
+            .map(|i| {
+                let dy = -0.6 + 0.08 * i as f32;
+                (
+                    Vec3::new(0.0, 2.0, 0.0),
+                    Vec3::new((1.0 - dy * dy).sqrt(), dy, 0.0),
+                    t,
+                )
+            })
+            .collect();
+        for (odd, f) in odds {
+            for p in 0..n {
+                let mut rays = base.clone();
+                f(&mut rays[p]);
+                let all = [true; 3];
+                let x8 = eval(&sc, &rays, false, Path::X8, all);
+                let scalar = eval(&sc, &rays, false, Path::Scalar, all);
+                for i in 0..n {
+                    for k in 0..9 {
+                        let (a, b) = (x8[k / 3][k % 3][i], scalar[k / 3][k % 3][i]);
+                        assert!(
+                            a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                            "{kind}, {odd} at {p}: ray {i}, output {k}: x8 {a:e}, scalar {b:e}"
+                        );
+                        if i == p {
+                            assert!(a.is_nan(), "{kind}, {odd} at {p}: output {k} = {a:e}");
+                        } else {
+                            assert!(a.is_finite() || (k < 3 && a == f32::INFINITY));
+                        }
+                    }
+                }
+            }
+        }
+    }
+}

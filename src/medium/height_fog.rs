@@ -278,12 +278,13 @@ const TAME_M_MIN: f32 = 9.536_743e-7; // 2^-20
 const TAME_M_MAX: f32 = 2_147_483_648.0; // 2^31
 const TAME_DELTA_MAX: f32 = 256.0;
 const TAME_NEG_DELTA: f32 = -1.734_723_5e-18; // -2^-59
-/// Sky lanes of [`depth_args_tame`] (t = +∞): |b·u| in [2^-12, 2^12), and the power of two
-/// 2^SKY_SHIFT that scales it into φ's argument.
-const TAME_SKY_MIN: f32 = 2.441_406_3e-4; // 2^-12
+/// Sky lanes of [`depth_args_tame_wide`] (t = +∞): |b·u| in [2^-38, 2^12), scaled into
+/// φ's argument by 2^17 from 2^-12 up, else by 2^43.
+const TAME_SKY_MIN: f32 = 3.637_978_8e-12; // 2^-38
+const TAME_SKY_MID: f32 = 2.441_406_3e-4; // 2^-12
 const TAME_SKY_MAX: f32 = 4096.0; // 2^12
-const SKY_SHIFT: f32 = 131_072.0; // 2^17
-const SKY_SHIFT_EXP: f32 = 17.0;
+const SKY_SHIFT: [f32; 2] = [131_072.0, 8_796_093_022_208.0]; // 2^17, 2^43
+const SKY_SHIFT_EXP: [f32; 2] = [17.0, 43.0];
 
 /// [`depth_args_of`]`::<L, 1>` (0 < |b| ≤ 2^40) for an axis-aligned up vector, on plain
 /// f32 without the mantissa/exponent bookkeeping (no frexp of u and t, no exponent sums,
@@ -291,7 +292,7 @@ const SKY_SHIFT_EXP: f32 = 17.0;
 /// d and the segment end, `norm` is |d| as (n_m, n_e). Returns the arguments and the
 /// lanes where they are valid; the caller uses them only if every lane is (the batch
 /// kernel decides per packet, so that extreme data keep their speed; t = +∞:
-/// [`depth_args_tame_sky`]).
+/// [`depth_args_tame_wide`]).
 ///
 /// Where the mask is set, `depth_of` and the `ldexp` of stage 3 give the same bits as
 /// from [`depth_args_of`] (tested against it in `kernel::tests`), because the two differ
@@ -339,23 +340,51 @@ pub(crate) fn depth_args_tame<L: Lane>(
     (args, ok)
 }
 
-/// [`depth_args_tame`]'s arguments with its sky lanes patched in, for a packet where it
-/// rejected some lane: sky lanes (t = +∞, |b·u| in [2^-12, 2^12), y finite) give the
-/// same bits after stage 3 as the general path, by the same argument. There the general
-/// path has t = 1·2^(2^21), φ's argument |dm|·2^8 with dm = b_m·u_m rounded (≥ 256,
-/// beyond the 30 above which `exprel_neg` returns N/x for one constant N), m = n_m and the
-/// exponent n_e + 8 − e_b − e_u; here φ's argument is |b·u|·2^17 (in [32, 2^29)), so φ is
-/// the general one times 2^(8 − 17 − e_b − e_u) exactly (b·u = dm·2^(e_b + e_u), normal),
-/// and the exponent n_e + 17 makes up for it. G = m·φ·e^(−u_min) stays in [2^-30, 2^-2]
-/// (inside `shared_depth`'s [2^-32, 2^32) and, times a channel's mantissa, `ldexp`'s
-/// precondition). The density's exponent, as `depth_args_tame` formed it, is the general
-/// one: Δ·2^-64 = ±∞ here, where the general path has ±|dm|·2^127, so min(Δ·2^-64, 0) is
-/// 0 (b·u > 0) or makes u_min −∞ in both (b·u < 0: |b·y0·2^-64| ≤ 2^104 cannot offset
-/// it; then τ = +∞, T = 0). Returns the arguments and the lanes where they are valid.
-/// The exponent of a sky lane is not n_e, so [`depth_with_tame`]'s shortcut does not
-/// apply to such packets.
+/// Bounds of [`depth_args_tame_wide`]'s lanes: |d|·t in [2^-52, 2^43] (scaled by 2^∓32
+/// into the plain bounds where outside them); for far lanes |Δ| in [2^8, 2^90] and
+/// |b·u| in [2^-29, 2^29); the power of two that scales the near ones.
+const TAME_WIDE_M_MIN: f32 = 2.220_446e-16; // 2^-52
+const TAME_WIDE_M_MAX: f32 = 8_796_093_022_208.0; // 2^43
+const TAME_FAR_MAX: f32 = 1.237_940_1e27; // 2^90
+const TAME_FAR_BU_MIN: f32 = 1.862_645_1e-9; // 2^-29
+const TAME_FAR_BU_MAX: f32 = 536_870_912.0; // 2^29
+const M_SHIFT: f32 = 4_294_967_296.0; // 2^32
+const M_SHIFT_EXP: f32 = 32.0;
+
+/// [`depth_args_tame`]'s arguments widened, for a packet where it rejected some lane:
+/// three more kinds of lane (y finite in all) give the same bits after stage 3 as the
+/// general path, each by an exact power of two.
+/// - **Near lanes**, |d|·t in [2^-52, 2^-20) or (2^31, 2^43], otherwise within the plain
+///   bounds (|Δ| < 2^8, a negative Δ not within 2^-59 of 0): m = n_m·t times 2^±32
+///   into [2^-20, 2^31], and the exponent n_e ∓ 32. The plain argument holds: with
+///   t ≤ 2^66 (n_m ≥ 2^-23), |Δ| ≥ 2^-60 still makes b·u normal (above 2^43, b·u could
+///   be subnormal there, and the general path would round Δ differently).
+/// - **Far lanes**, finite t with |Δ| in [2^8, 2^90] and |b·u| in [2^-29, 2^29): the
+///   plain arguments as they are. The general path clamps φ's argument to |dm|·2^8
+///   (dm = (b_m·u_m)·t_m, rounded as (b·u)·t is: both normal) and moves 2^(8 − e_Δ)
+///   into the exponent; beyond 30 `exprel_neg` is N/x for one constant N, correctly
+///   rounded, so φ(|Δ|) = φ(|dm|·2^8)·2^(8 − e_Δ) exactly (normal: |Δ| ≤ 2^90), and
+///   m = n_m·t (t ≤ 2^119, so m is finite) carries 2^t_e: the same G·2^e, with
+///   G = m·φ·e^(−u_min) ≈ n_m·e^(−u_min)/|b·u| in [2^-29.6, 2^31.4] (n_m in [1, 2√3):
+///   u, so d, is normal; inside `shared_depth`'s [2^-32, 2^32) and, times a channel's
+///   mantissa, `ldexp`'s precondition). Δ·2^-64 is exact (|Δ| ≥ 2^8).
+/// - **Sky lanes**, t = +∞ and |b·u| in [2^-38, 2^12): the general path has t =
+///   1·2^(2^21), φ's argument |dm|·2^8 with dm = b_m·u_m rounded (≥ 256, where φ = N/x),
+///   m = n_m and the exponent n_e + 8 − e_b − e_u; here φ's argument is |b·u|·2^k with
+///   k = 17 (|b·u| ≥ 2^-12) or 43, in [32, 2^31), so φ is the general one times
+///   2^(8 − k − e_b − e_u) exactly (b·u = dm·2^(e_b + e_u), normal), and the exponent
+///   n_e + k makes up for it. G stays in [2^-31.6, 2^-2.6]. The density's exponent, as
+///   `depth_args_tame` formed it, is the general one: Δ·2^-64 = ±∞ here, where the
+///   general path has ±|dm|·2^127, so min(Δ·2^-64, 0) is 0 (b·u > 0) or makes u_min −∞
+///   in both (b·u < 0: |b·y0·2^-64| ≤ 2^104 cannot offset it; then τ = +∞, T = 0).
+///
+/// Returns the arguments and the lanes where they are valid. The exponent of a near or
+/// sky lane is not n_e, so [`depth_with_tame`]'s shortcut does not apply to such packets.
+/// Sky lanes are tried first, and a packet of sky and plain lanes returns before the
+/// rest is formed. The products below are [`depth_args_tame`]'s (LLVM forms them once
+/// where both run).
 #[inline(always)]
-pub(crate) fn depth_args_tame_sky<L: Lane>(
+pub(crate) fn depth_args_tame_wide<L: Lane>(
     layer: &LayerCore,
     y_s: L,
     u: L,
@@ -364,18 +393,61 @@ pub(crate) fn depth_args_tame_sky<L: Lane>(
     tame: (DepthArgs<L>, L::Mask),
 ) -> (DepthArgs<L>, L::Mask) {
     let (args, ok) = tame;
-    let abu = (L::splat(layer.b) * u).abs();
-    let sky = t.eq(L::splat(f32::INFINITY))
-        & abu.ge(L::splat(TAME_SKY_MIN))
-        & abu.lt(L::splat(TAME_SKY_MAX))
-        & y_s.abs().le(L::splat(f32::MAX));
+    let bu = L::splat(layer.b) * u;
+    let abu = bu.abs();
+    let y_fin = y_s.abs().le(L::splat(f32::MAX));
+    // |d| finite (an infinite component off the up axis makes the general path's guard
+    // NaN) and the height finite: sky and far lanes.
+    let fin = norm.0.le(L::splat(f32::MAX)) & y_fin;
+    let inf = t.eq(L::splat(f32::INFINITY)) & fin;
+    // Sky lanes with |b·u| ≥ 2^-12 first: a packet of them and plain lanes (a renderer's
+    // sky) stops here.
+    let sky = inf & abu.ge(L::splat(TAME_SKY_MID)) & abu.lt(L::splat(TAME_SKY_MAX));
     let args = DepthArgs {
-        dc: L::select(sky, abu * L::splat(SKY_SHIFT), args.dc),
+        dc: L::select(sky, abu * L::splat(SKY_SHIFT[0]), args.dc),
         m: L::select(sky, norm.0, args.m),
-        e: L::select(sky, norm.1 + L::splat(SKY_SHIFT_EXP), args.e),
+        e: L::select(sky, norm.1 + L::splat(SKY_SHIFT_EXP[0]), args.e),
         ..args
     };
-    (args, ok | sky)
+    let ok = ok | sky;
+    if !L::any(!ok) {
+        return (args, ok);
+    }
+    // Sky lanes with |b·u| in [2^-38, 2^-12) (nearly level rays).
+    let sky = inf & abu.ge(L::splat(TAME_SKY_MIN)) & abu.lt(L::splat(TAME_SKY_MID));
+    let args = DepthArgs {
+        dc: L::select(sky, abu * L::splat(SKY_SHIFT[1]), args.dc),
+        m: L::select(sky, norm.0, args.m),
+        e: L::select(sky, norm.1 + L::splat(SKY_SHIFT_EXP[1]), args.e),
+        ..args
+    };
+    let ok = ok | sky;
+    let d = bu * t;
+    let ad = d.abs();
+    // t > 0: the guard is 0 here.
+    let far = ad.ge(L::splat(TAME_DELTA_MAX))
+        & ad.le(L::splat(TAME_FAR_MAX))
+        & t.gt(L::splat(0.0))
+        & abu.ge(L::splat(TAME_FAR_BU_MIN))
+        & abu.lt(L::splat(TAME_FAR_BU_MAX))
+        & fin;
+    // Near: the plain bounds but for m's (sky lanes fail |Δ| < 2^8).
+    let m = args.m;
+    let near = ad.lt(L::splat(TAME_DELTA_MAX))
+        & (d.ge(L::splat(0.0)) | d.le(L::splat(TAME_NEG_DELTA)))
+        & m.ge(L::splat(TAME_WIDE_M_MIN))
+        & m.le(L::splat(TAME_WIDE_M_MAX))
+        & y_fin;
+    let scaled = near & !ok;
+    let small = m.lt(L::splat(TAME_M_MIN));
+    let scale = L::select(small, L::splat(M_SHIFT), L::splat(1.0 / M_SHIFT));
+    let shift = L::select(small, L::splat(-M_SHIFT_EXP), L::splat(M_SHIFT_EXP));
+    let args = DepthArgs {
+        m: L::select(scaled, m * scale, m),
+        e: L::select(scaled, norm.1 + shift, args.e),
+        ..args
+    };
+    (args, ok | near | far)
 }
 
 /// The second half of [`layer_depth`]: φ(|Δ|) and e^(−u_min), and G assembled.

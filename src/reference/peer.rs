@@ -46,13 +46,7 @@ pub struct PeerRays {
 impl PeerRays {
     /// The first `n` rays of the typical or the extreme set.
     pub fn new(n: usize, extreme: bool) -> PeerRays {
-        let mut s: u64 = 88172645463325252;
-        let mut uni = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            ((s >> 40) as f64 * (1.0 / 16777216.0)) as f32
-        };
+        let mut uni = uniform(88172645463325252);
         let mut r = PeerRays {
             oy: vec![0.0; n],
             dy: vec![0.0; n],
@@ -70,6 +64,34 @@ impl PeerRays {
                 d = -y / u;
             }
             (r.oy[i], r.dy[i], r.t[i]) = (y, u, d);
+        }
+        r
+    }
+
+    /// Data extreme for this crate's own ranges rather than the peer's (the peer's extreme
+    /// set stays inside the kernel's tame first stage), from the first `n` rays of the
+    /// typical set:
+    /// - `stiff` false, *sky*: every t = +∞ (a renderer's sky pixels; looking down,
+    ///   τ = +∞ and T = 0);
+    /// - `stiff` true: each ray one of four kinds at random: t = +∞; t from 1e9 to 1e12
+    ///   (|Δ| far beyond 256 unless the ray is nearly level); t from 1e-9 to 1e-7 (|d|·t
+    ///   below 2^-20); a camera 1e4 above or 1e3 below the base (the density at the camera
+    ///   under- or overflows f32) with a typical t.
+    pub fn crate_extreme(n: usize, stiff: bool) -> PeerRays {
+        let mut r = PeerRays::new(n, false);
+        if !stiff {
+            r.t.iter_mut().for_each(|t| *t = f32::INFINITY);
+            return r;
+        }
+        let mut uni = uniform(0x9E37_79B9_7F4A_7C15);
+        for i in 0..n {
+            let kind = (uni() * 4.0) as u32;
+            match kind {
+                0 => r.t[i] = f32::INFINITY,
+                1 => r.t[i] = 1e9 * 1e3f32.powf(uni()),
+                2 => r.t[i] = 1e-9 * 1e2f32.powf(uni()),
+                _ => r.oy[i] = if uni() < 0.5 { 1e4 } else { -1e3 },
+            }
         }
         r
     }
@@ -107,5 +129,16 @@ impl PeerRays {
             }
         }
         (first, all)
+    }
+}
+
+/// The peer's xorshift generator from `seed`: uniform f32 in [0, 1) with 24 bits.
+fn uniform(seed: u64) -> impl FnMut() -> f32 {
+    let mut s = seed;
+    move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        ((s >> 40) as f64 * (1.0 / 16777216.0)) as f32
     }
 }
