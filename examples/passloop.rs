@@ -7,7 +7,8 @@
 //! target/release/examples/passloop` (then `callgrind_annotate --inclusive=yes` and look
 //! for `height::fog_row`; a frame is 259,200 packets of 8 pixels).
 //! `passloop batch` runs the batch API's kernel (`Scene::with_batch_kernel_pass`).
-//! `FRAMES=n` runs n frames and prints the best frame's time (for `perf record`).
+//! `FRAMES=n` runs n frames and prints the best frame's time (for `perf record`);
+//! `EYE_Y=y` puts the eye at height y (default 2).
 
 use analytic_fog::pass::{Camera, ColourBuffer, Depth};
 use analytic_fog::{Component, HeightFogLayer, Lighting, Phase, Scene, SceneDesc, Sun};
@@ -40,8 +41,14 @@ fn main() {
         scene
     };
     let (w, h) = (1920, 1080);
+    // `EYE_Y=y`: the eye's height (default 2; e.g. 500, far above the fog, where τ is
+    // below 1e-19 everywhere in the frame).
+    let eye_y: f32 = std::env::var("EYE_Y")
+        .ok()
+        .and_then(|f| f.parse().ok())
+        .unwrap_or(2.0);
     let cam = Camera::perspective(
-        Vec3::new(0.0, 2.0, 0.0),
+        Vec3::new(0.0, eye_y, 0.0),
         Vec3::new(0.0, -0.15, -1.0).normalize(),
         Vec3::Y,
         1.0,

@@ -23,17 +23,20 @@
 //!
 //! That plain f32 product is exact to a few roundings, and saturates only where the true
 //! τ is far beyond 104, on the frames that [`HeightPass::new`] accepts (it returns `None`,
-//! and the pass uses the batch kernel, otherwise). With T_BIG = 1e20 (t is clamped to it,
-//! sky pixels included), n_min ≤ n ≤ n_max over the frame, and K_min, K_max the smallest
-//! non-zero and the largest K_c:
+//! and the pass uses the batch kernel, otherwise). t is clamped to the frame's T_BIG (sky
+//! pixels included): a tenth of the largest power of ten at which K_max·n_max·T_BIG,
+//! |b|·n_max·T_BIG and n_max·T_BIG stay within 1e37 (at most 1e36), with n_min ≤ n ≤
+//! n_max over the frame, and K_min, K_max the smallest non-zero and the largest K_c:
 //! - clamping t: if Δ(T_BIG) ≥ 20, τ(T_BIG) and τ(t) differ by less than e^(−20)
 //!   relative; otherwise τ(T_BIG) ≥ K_min·n_min·T_BIG·E(20) > 1e4 (requires
-//!   K_min·n_min ≥ 2e-15), so both saturate;
+//!   K_min·n_min·T_BIG ≥ 2e5), so both saturate. (With T_BIG fixed at 1e20, as until
+//!   the eighteenth session, this required K_min·n_min ≥ 2e-15: an eye 250 m above a
+//!   fog of b = 0.1 already fell back to the batch kernel, at twice the time);
 //! - E stops growing where `exp2m1` clamps y' at 127 (Δ < −88.03): there E = 2^127/
 //!   (y'·ln 2) and τ = K·n·t·E = K·2^127·n/(|b|·|u|) ≥ K·1.7e38/|b| > 5e3 (requires
 //!   K_min/|b| ≥ 3e-35; n ≥ |u| as up is unit), so T is 0 as it is for the exact τ;
 //! - K_c is a normal f32 (1e-30 ≤ K_c ≤ 1e30 where σ_c > 0);
-//! - nothing else overflows: K_max·n_max·T_BIG ≤ 1e37 and |b|·n_max·T_BIG ≤ 1e37;
+//! - nothing else overflows: n·t, K·n·t and y' are at most 1e37 (T_BIG's bounds);
 //! - n·t·E is clamped to f32::MAX so that a channel with σ_c = 0 gives τ = 0, not 0·∞.
 //!
 //! The ranges are checked in the log domain: K_c itself can leave even f64's range.
@@ -56,8 +59,8 @@ use crate::scene::{Scene, UpAxis};
 use crate::Tier;
 use wide::{f32x16, f32x8};
 
-/// Rays are clamped to this length (see the module documentation).
-const T_BIG: f32 = 1e20;
+/// Rays are clamped to a frame's T_BIG, at most this (see the module documentation).
+const T_BIG_MAX: f32 = 1e37;
 /// Below this, E(Δ) = 1 in f32; keeps the division away from 0/0.
 const TINY: f32 = 8.673_617e-19; // 2^-60
 
@@ -257,6 +260,8 @@ pub(crate) struct HeightPass {
     x8: bool,
     /// NDC: z = near / (depth·k + q), sky where depth·sky_s ≥ sky_at.
     ndc: [f32; 5],
+    /// The frame's T_BIG: rays are clamped to this length.
+    t_big: f32,
 }
 
 /// t = depth.
@@ -269,8 +274,8 @@ const NDC: usize = 2;
 impl HeightPass {
     /// The frame's constants, or `None` where this kernel does not apply: an orthographic
     /// camera, anything but one height fog layer, or constants outside the ranges of the
-    /// module documentation (an eye so far above or below the fog that ρ₀ leaves them,
-    /// extinctions near 1e-12 or 1e12, |b| above 1e12).
+    /// module documentation (an eye so far above or below the fog that K_c = σ_c·ρ₀
+    /// leaves [1e-30, 1e30], or K_c below about 2e-31·|b|).
     pub(crate) fn new(scene: &Scene, plan: &FramePlan) -> Option<HeightPass> {
         if plan.ortho {
             return None;
@@ -313,21 +318,33 @@ impl HeightPass {
             .collect();
         let ln_k_max = ln_k.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
         let ln_k_min = ln_k.iter().cloned().fold(f64::INFINITY, f64::min);
-        let ln_t_big = f64::from(T_BIG).ln();
+        // The frame's T_BIG (module documentation): K_max·n_max·T_BIG, |b|·n_max·T_BIG
+        // and n_max·T_BIG within 1e37, T_BIG at most T_BIG_MAX.
+        let mut ln_t_big = f64::from(T_BIG_MAX).ln().min(1e37f64.ln() - n_max.ln());
+        if !ln_k.is_empty() {
+            ln_t_big = ln_t_big.min(1e37f64.ln() - ln_k_max - n_max.ln());
+        }
+        if b != 0.0 {
+            ln_t_big = ln_t_big.min(1e37f64.ln() - b.abs().ln() - n_max.ln());
+        }
+        // Rounded down to a power of ten (then to f32, within a few ULP: the bounds
+        // below keep a factor of 10 in hand).
+        let t_big = 10f64.powf((ln_t_big / core::f64::consts::LN_10).floor() - 1.0);
         let ok = n_min.is_finite()
             && n_min > 0.0
             && n_max.is_finite()
             && a0.is_finite()
+            && t_big.is_finite()
+            && t_big >= 1.0
             && (ln_k.is_empty()
                 || (ln_k_min >= 1e-30f64.ln()
                     && ln_k_max <= 1e30f64.ln()
-                    && ln_k_min + n_min.ln() >= 2e-15f64.ln()
-                    && ln_k_min >= (3e-35 * b.abs()).ln()
-                    && ln_k_max + n_max.ln() + ln_t_big <= 1e37f64.ln()))
-            && b.abs() * n_max * f64::from(T_BIG) <= 1e37;
+                    && ln_k_min + n_min.ln() + t_big.ln() >= 2e5f64.ln()
+                    && ln_k_min >= (3e-35 * b.abs()).ln()));
         if !ok {
             return None;
         }
+        let t_big = t_big as f32;
         // (σ_c = 0 stays 0: e^(−a0) may be +∞ here, where no channel has extinction.)
         let k64 = layer.sigma_t.map(|s| {
             if s > 0.0 {
@@ -376,6 +393,7 @@ impl HeightPass {
             depth,
             ndc,
             x8: scene.pass_lanes_8,
+            t_big,
         })
     }
 }
@@ -676,9 +694,9 @@ fn geometry<W: PassLane>(hp: &HeightPass, d: [W; 3], depth: W) -> (W, W, W) {
         }
     };
     // Negative depths to 0 (`Lane::max` is maxps: NaN, the second operand, stays NaN);
-    // rays clamped to T_BIG (`Lane::min`: NaN stays NaN). Not wide's `min`/`max`, which
+    // rays clamped to the frame's T_BIG (`Lane::min`: NaN stays NaN). Not wide's `min`/`max`, which
     // return the other operand for NaN.
-    let t = Lane::min(W::splat(T_BIG), Lane::max(W::splat(0.0), t));
+    let t = Lane::min(W::splat(hp.t_big), Lane::max(W::splat(0.0), t));
     let y = (W::splat(hp.b2) * u) * t;
     let y = <W as Lane>::select(Lane::lt(Lane::abs(y), W::splat(TINY)), W::splat(TINY), y);
     (y, n * t, inv_n)
