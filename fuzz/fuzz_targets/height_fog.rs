@@ -1,7 +1,8 @@
 //! Fuzzes the height fog kernels with arbitrary f32 bit patterns (NaN, ±inf, subnormals,
 //! huge and tiny values) for a scene's parameters and a batch of rays.
 //!
-//! The scene is built through `Scene::new` (inputs it rejects are skipped); the batch is
+//! The scene is built through `Scene::new` (inputs it rejects are skipped); the batch
+//! (independent rays, or copies of one ray each with at most one field replaced) is
 //! evaluated with `evaluate` (8 lanes) and `evaluate_scalar`, and checked for:
 //!
 //! - no panic, anywhere;
@@ -288,12 +289,27 @@ fuzz_target!(|data: &[u8]| {
     // no-panic, x8 == scalar and NaN checks apply).
     let mode = inp.byte() % 3;
     let unit = mode != 0;
-    let n = (inp.remaining() / 28).min(MAX_RAYS);
+    // Copies of one template ray, each with at most one field replaced: packets whose
+    // other lanes all take one of the kernel's per-packet paths (the tame first stage
+    // with its sky, far and near lanes) with one odd lane among them, which independent
+    // random rays almost never give.
+    let template = (inp.byte() % 2 == 1).then(|| [(); 7].map(|_| inp.f32()));
+    let per_ray = if template.is_some() { 5 } else { 28 };
+    let n = (inp.remaining() / per_ray).min(MAX_RAYS);
     let mut cols: [Vec<f32>; 7] = Default::default();
     for _ in 0..n {
         let mut ray = [0f32; 7];
-        for v in ray.iter_mut() {
-            *v = inp.f32();
+        if let Some(tpl) = template {
+            ray = tpl;
+            // Field 7: none.
+            let (k, v) = (inp.byte() as usize % 8, inp.f32());
+            if k < 7 {
+                ray[k] = v;
+            }
+        } else {
+            for v in ray.iter_mut() {
+                *v = inp.f32();
+            }
         }
         let d = glam::DVec3::new(ray[3] as f64, ray[4] as f64, ray[5] as f64);
         if mode == 1 && d.is_finite() && d != glam::DVec3::ZERO {
