@@ -1362,26 +1362,15 @@ fn own_kernel_saturation_and_vanishing_terms() {
             (-40.0, 0.5),
             (-40.0, -0.2),
         ] {
-            let desc = SceneDesc {
-                height_fog: vec![HeightFogLayer {
-                    base_height: 0.0,
-                    falloff,
-                    emission: Vec3::new(0.01, 0.0, 0.02),
-                    components: vec![Component {
-                        scattering: Vec3::new(0.5, 0.02, 0.0),
-                        absorption: Vec3::new(0.1, 0.0, 0.0),
-                        phase: Phase::HenyeyGreenstein(0.7),
-                    }],
-                }],
-                lighting: Lighting {
-                    ambient: Vec3::new(0.5, 0.6, 0.7),
-                    sun: Some(Sun {
-                        direction: Vec3::new(0.3, 0.4, -0.87),
-                        radiance: Vec3::new(20.0, 18.0, 15.0),
-                    }),
+            let desc = sunlit_layer(
+                falloff,
+                Vec3::new(0.01, 0.0, 0.02),
+                Component {
+                    scattering: Vec3::new(0.5, 0.02, 0.0),
+                    absorption: Vec3::new(0.1, 0.0, 0.0),
+                    phase: Phase::HenyeyGreenstein(0.7),
                 },
-                ..SceneDesc::default()
-            };
+            );
             let scene = Scene::new(desc.clone()).unwrap();
             let fwd = Vec3::new(0.0, pitch, -1.0).normalize();
             let cam =
@@ -1481,6 +1470,26 @@ fn own_kernel_fast_tier_within_its_budget() {
     assert!(own >= 30, "own kernel ran {own} frames");
 }
 
+/// One height fog layer at base height 0 with one component, a sun and ambient light.
+fn sunlit_layer(falloff: f32, emission: Vec3, component: Component) -> SceneDesc {
+    SceneDesc {
+        height_fog: vec![HeightFogLayer {
+            base_height: 0.0,
+            falloff,
+            emission,
+            components: vec![component],
+        }],
+        lighting: Lighting {
+            ambient: Vec3::new(0.5, 0.6, 0.7),
+            sun: Some(Sun {
+                direction: Vec3::new(0.3, 0.4, -0.87),
+                radiance: Vec3::new(20.0, 18.0, 15.0),
+            }),
+        },
+        ..SceneDesc::default()
+    }
+}
+
 /// Depths for the saturation tests: +∞, 0, and 1 to 1e6 in decades.
 fn saturation_depths(n: usize) -> Vec<f32> {
     (0..n)
@@ -1567,26 +1576,15 @@ fn own_kernel_eye_far_above_the_fog() {
     let mut counts = [0usize; 3];
     for &eye in &[250.0f32, 400.0, 500.0, 600.0] {
         for &pitch in &[-0.6f32, -0.05, 0.0, 0.3] {
-            let desc = SceneDesc {
-                height_fog: vec![HeightFogLayer {
-                    base_height: 0.0,
-                    falloff: 0.1,
-                    emission: Vec3::ZERO,
-                    components: vec![Component {
-                        scattering: Vec3::new(0.02, 0.03, 0.05),
-                        absorption: Vec3::ZERO,
-                        phase: Phase::HenyeyGreenstein(0.6),
-                    }],
-                }],
-                lighting: Lighting {
-                    ambient: Vec3::new(0.5, 0.6, 0.7),
-                    sun: Some(Sun {
-                        direction: Vec3::new(0.3, 0.4, -0.87),
-                        radiance: Vec3::new(20.0, 18.0, 15.0),
-                    }),
+            let desc = sunlit_layer(
+                0.1,
+                Vec3::ZERO,
+                Component {
+                    scattering: Vec3::new(0.02, 0.03, 0.05),
+                    absorption: Vec3::ZERO,
+                    phase: Phase::HenyeyGreenstein(0.6),
                 },
-                ..SceneDesc::default()
-            };
+            );
             let scene = Scene::new(desc.clone()).unwrap();
             let fwd = Vec3::new(0.0, pitch, -1.0).normalize();
             let cam = Camera::perspective(Vec3::new(0.0, eye, 0.0), fwd, Vec3::Y, 1.2, 29.0 / 7.0)

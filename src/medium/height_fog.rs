@@ -402,25 +402,24 @@ pub(crate) fn depth_args_tame_wide<L: Lane>(
     let inf = t.eq(L::splat(f32::INFINITY)) & fin;
     // Sky lanes with |b·u| ≥ 2^-12 first: a packet of them and plain lanes (a renderer's
     // sky) stops here.
-    let sky = inf & abu.ge(L::splat(TAME_SKY_MID)) & abu.lt(L::splat(TAME_SKY_MAX));
-    let args = DepthArgs {
-        dc: L::select(sky, abu * L::splat(SKY_SHIFT[0]), args.dc),
-        m: L::select(sky, norm.0, args.m),
-        e: L::select(sky, norm.1 + L::splat(SKY_SHIFT_EXP[0]), args.e),
-        ..args
+    // The sky lanes with |b·u| in [lo, hi), scaled by SKY_SHIFT[k].
+    let sky_lanes = |args: DepthArgs<L>, lo: f32, hi: f32, k: usize| {
+        let sky = inf & abu.ge(L::splat(lo)) & abu.lt(L::splat(hi));
+        let args = DepthArgs {
+            dc: L::select(sky, abu * L::splat(SKY_SHIFT[k]), args.dc),
+            m: L::select(sky, norm.0, args.m),
+            e: L::select(sky, norm.1 + L::splat(SKY_SHIFT_EXP[k]), args.e),
+            ..args
+        };
+        (args, sky)
     };
+    let (args, sky) = sky_lanes(args, TAME_SKY_MID, TAME_SKY_MAX, 0);
     let ok = ok | sky;
     if !L::any(!ok) {
         return (args, ok);
     }
     // Sky lanes with |b·u| in [2^-38, 2^-12) (nearly level rays).
-    let sky = inf & abu.ge(L::splat(TAME_SKY_MIN)) & abu.lt(L::splat(TAME_SKY_MID));
-    let args = DepthArgs {
-        dc: L::select(sky, abu * L::splat(SKY_SHIFT[1]), args.dc),
-        m: L::select(sky, norm.0, args.m),
-        e: L::select(sky, norm.1 + L::splat(SKY_SHIFT_EXP[1]), args.e),
-        ..args
-    };
+    let (args, sky) = sky_lanes(args, TAME_SKY_MIN, TAME_SKY_MID, 1);
     let ok = ok | sky;
     let d = bu * t;
     let ad = d.abs();
