@@ -1830,8 +1830,15 @@ mod tests {
             two(-38) / 0.1,
             two(-29) / 0.1,
             two(29) / 0.1,
+            // Δ = b·u·t about 2^-60 (φ's clamp, the general path's clamped Δ·2^-64) for
+            // t = 1 and 7.5 in the first layer.
+            two(-60) / 0.1,
+            two(-62) / 0.1,
+            two(-63) / 0.75,
         ]);
-        let ys = edge_values(&[two(-62), two(-60), two(64), two(100)]);
+        // |b·y| about 2^-34 (|a0s| about 2^-98, where a tiny negative Δ could move the
+        // general path's u_min) in the first layer.
+        let ys = edge_values(&[two(-62), two(-60), two(64), two(100), two(-34) / 0.1]);
         // (b, h0): typical, negative, tiny and the largest of KIND 1; base heights that
         // make y − h0 cancel or leave the scaled range.
         let layers = [
@@ -1849,8 +1856,8 @@ mod tests {
             [1e-38, 2e-38, 0.0],
         ];
         let (mut tame, mut total) = (0usize, 0usize);
-        // Lanes the widened stage takes: near (m scaled), far, sky.
-        let mut wide = [0usize; 3];
+        // Lanes the widened stage takes: near (m scaled), far, sky, zero.
+        let mut wide = [0usize; 4];
         for &(b, h0) in &layers {
             for sigma in sigmas {
                 let s = single(b, h0, sigma);
@@ -1877,7 +1884,13 @@ mod tests {
                             let plain = plain.1;
                             if ok && !plain {
                                 let far = t.is_finite() && (b * u * t).abs() >= 256.0;
-                                wide[if t.is_infinite() { 2 } else { far as usize }] += 1;
+                                wide[if t == 0.0 {
+                                    3
+                                } else if t.is_infinite() {
+                                    2
+                                } else {
+                                    far as usize
+                                }] += 1;
                             }
                             // Unit directions.
                             let (a, _, tamed) =
@@ -1915,10 +1928,10 @@ mod tests {
             }
         }
         // Both paths, and each kind of the widened stage's lanes, were exercised.
-        eprintln!("{tame} of {total} tame; near, far, sky: {wide:?}");
+        eprintln!("{tame} of {total} tame; near, far, sky, zero: {wide:?}");
         assert!(
             tame > total / 20 && tame < total / 2 && wide.iter().all(|&k| k > total / 1000),
-            "{tame} of {total} tame; near, far, sky: {wide:?}"
+            "{tame} of {total} tame; near, far, sky, zero: {wide:?}"
         );
     }
 

@@ -137,7 +137,7 @@ pub(crate) fn direction_norm<L: Lane>(d: [L; 3]) -> ((L, L), [L; 3]) {
 /// channel) this stays inside the precondition of [`crate::math::ldexp`].
 ///
 /// `FAST`: the Fast tier's φ and exponential (`math::fast`, relative errors 3.4e-5 and
-/// 1.4e-5 instead of 1.7 and 1.1 ULP); the range handling is the same.
+/// 1.4e-5 instead of 1.7 and 0.95 ULP); the range handling is the same.
 ///
 /// In two halves, [`depth_args`] (exponent arithmetic) and [`depth_of`] (the two
 /// exponentials), so that a batch loop can run each over a block of packets.
@@ -272,12 +272,10 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
     }
 }
 
-/// Bounds of [`depth_args_tame`]'s lanes: |d|·t in [2^-20, 2^31], |Δ| < 2^8, and a
-/// negative Δ no closer to 0 than −2^-59.
+/// Bounds of [`depth_args_tame`]'s lanes: |d|·t in [2^-20, 2^31] and |Δ| < 2^8.
 const TAME_M_MIN: f32 = 9.536_743e-7; // 2^-20
 const TAME_M_MAX: f32 = 2_147_483_648.0; // 2^31
 const TAME_DELTA_MAX: f32 = 256.0;
-const TAME_NEG_DELTA: f32 = -1.734_723_5e-18; // -2^-59
 /// Sky lanes of [`depth_args_tame_wide`] (t = +∞): |b·u| in [2^-38, 2^12), scaled into
 /// φ's argument by 2^17 from 2^-12 up, else by 2^43.
 const TAME_SKY_MIN: f32 = 3.637_978_8e-12; // 2^-38
@@ -303,11 +301,22 @@ const SKY_SHIFT_EXP: [f32; 2] = [17.0, 43.0];
 ///   inside `ldexp`'s precondition [2^-62, 2^39] (and its product with `pow2_pair`'s
 ///   first factor stays normal), so τ is rounded from the same real number;
 /// - Δ = (b·u)·t against (b_m·u_m)·t_m: the same roundings where b·u and Δ are normal,
-///   which |Δ| ≥ 2^-59 with t ≤ 2^31 guarantees; below 2^-60 both give φ's argument
-///   2^-60, and a non-negative Δ does not enter u_min;
+///   which |Δ| ≥ 2^-60 with t ≤ 2^31 guarantees (|b·u| ≥ 2^-91); below 2^-60 both give
+///   φ's argument 2^-60;
 /// - |Δ| < 2^8 keeps φ's argument unclamped (exponent of Δ ≤ 7) and φ's exponent 0;
-/// - Δ·2^-64 is exact for Δ ≤ −2^-59 (the general path clamps the scaling below 2^-126);
-/// - the height term b·(y·2^-64 − h0·2^-64) is formed by the same operations;
+/// - the height term a0s = b·(y·2^-64 − h0·2^-64) is formed by the same operations, and
+///   −u_min as a0s·(−2^64) − min(Δ, 0) in one FMA, where the general path rounds
+///   a0s + Δ·2^-64 and scales by −2^64: a0s·2^64 is exact (or beyond f32::MAX, where
+///   |Δ| < 2^8 cannot bring the sum back: ±∞ in both), so the two round the same real
+///   number wherever the general path's Δ·2^-64 is exact: where Δ's exponent is at
+///   least −62 (normal after the scaling). Below (|Δ| < 2^-60) the general path clamps
+///   the scaling to 2^-126, a term below 2^-123 in magnitude, against the FMA's |Δ| below
+///   2^-60: where |a0s| > 2^-98 (|a0s·2^64| > 2^-34), half an ulp of a0s exceeds the
+///   first and half an ulp of a0s·2^64 the second, so both sums are a0s; elsewhere both
+///   |u_min| are below 2^-33, where `exp_split` gives exactly (1, ±0) in both. So a tiny
+///   negative Δ needs no bound of its own, and no product here is subnormal for it (a
+///   nearly level ray, Δ = −1e-19, sent the whole packet down the general path, and a
+///   tiny positive one cost a microcode assist on Δ·2^-64; `examples/speedscan.rs`);
 /// - the guard is 0: t is finite and positive, y is finite (checked), and u is finite
 ///   because b·u·t is finite with t > 0.
 ///
@@ -323,12 +332,10 @@ pub(crate) fn depth_args_tame<L: Lane>(
     let d = (L::splat(layer.b) * u) * t;
     let ad = d.abs();
     let a0s = L::splat(layer.b) * (y_s - L::splat(layer.h0 * TWO_M64));
-    let ds = d * L::splat(TWO_M64);
-    let neg_u_min = (a0s + ds.min(L::splat(0.0))) * L::splat(-TWO64);
+    let neg_u_min = a0s.mul_sub(L::splat(-TWO64), d.min(L::splat(0.0)));
     let ok = m.ge(L::splat(TAME_M_MIN))
         & m.le(L::splat(TAME_M_MAX))
         & ad.lt(L::splat(TAME_DELTA_MAX))
-        & (d.ge(L::splat(0.0)) | d.le(L::splat(TAME_NEG_DELTA)))
         & y_s.abs().le(L::splat(f32::MAX));
     let args = DepthArgs {
         dc: ad.max(L::splat(8.673_617e-19)), // 2^-60, as in `depth_args_of`
@@ -352,10 +359,16 @@ const M_SHIFT: f32 = 4_294_967_296.0; // 2^32
 const M_SHIFT_EXP: f32 = 32.0;
 
 /// [`depth_args_tame`]'s arguments widened, for a packet where it rejected some lane:
-/// three more kinds of lane (y finite in all) give the same bits after stage 3 as the
-/// general path, each by an exact power of two.
+/// four more kinds of lane (y and |d| finite in all) give the same bits after stage 3 as
+/// the general path, three of them by an exact power of two.
+/// - **Zero lanes**, t = ±0 with b·u finite: the plain arguments as they are. The
+///   general path's G is (±0)·φ·e^(−u_min) + guard = +0, with φ(2^-60) = 1 and a finite
+///   e^(−u_min) (y finite), and so is this one (m = ±0, Δ = ±0, so φ's argument is 2^-60
+///   and −u_min = −a0s·2^64; packets with widened lanes add the guard +0 in the density
+///   stage); τ = +0 at any exponent. (A depth buffer's pixel at the eye, a batch's
+///   padding: these took the general path, at 1.6× the time.)
 /// - **Near lanes**, |d|·t in [2^-52, 2^-20) or (2^31, 2^43], otherwise within the plain
-///   bounds (|Δ| < 2^8, a negative Δ not within 2^-59 of 0): m = n_m·t times 2^±32
+///   bounds (|Δ| < 2^8): m = n_m·t times 2^±32
 ///   into [2^-20, 2^31], and the exponent n_e ∓ 32. The plain argument holds: with
 ///   t ≤ 2^66 (n_m ≥ 2^-23), |Δ| ≥ 2^-60 still makes b·u normal (above 2^43, b·u could
 ///   be subnormal there, and the general path would round Δ differently).
@@ -433,10 +446,11 @@ pub(crate) fn depth_args_tame_wide<L: Lane>(
     // Near: the plain bounds but for m's (sky lanes fail |Δ| < 2^8).
     let m = args.m;
     let near = ad.lt(L::splat(TAME_DELTA_MAX))
-        & (d.ge(L::splat(0.0)) | d.le(L::splat(TAME_NEG_DELTA)))
         & m.ge(L::splat(TAME_WIDE_M_MIN))
         & m.le(L::splat(TAME_WIDE_M_MAX))
         & y_fin;
+    // Zero lanes (t = ±0): m = ±0, G = +0 after the guard (see above).
+    let zero = t.eq(L::splat(0.0)) & abu.le(L::splat(f32::MAX)) & fin;
     let scaled = near & !ok;
     let small = m.lt(L::splat(TAME_M_MIN));
     let scale = L::select(small, L::splat(M_SHIFT), L::splat(1.0 / M_SHIFT));
@@ -446,7 +460,7 @@ pub(crate) fn depth_args_tame_wide<L: Lane>(
         e: L::select(scaled, norm.1 + shift, args.e),
         ..args
     };
-    (args, ok | near | far)
+    (args, ok | near | far | zero)
 }
 
 /// The second half of [`layer_depth`]: φ(|Δ|) and e^(−u_min), and G assembled.
