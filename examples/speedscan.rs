@@ -13,7 +13,7 @@ use analytic_fog::{Outputs, Rays, Scene};
 /// One family: a name, what it is, and how it changes a typical ray (oy, dy, t).
 type Family = (&'static str, &'static str, fn(&mut f32, &mut f32, &mut f32));
 
-const FAMILIES: [Family; 16] = [
+const FAMILIES: [Family; 17] = [
     (
         "camera_1e-19",
         "camera heights × 1e-19 (t clipped at the ground)",
@@ -54,6 +54,9 @@ const FAMILIES: [Family; 16] = [
     ("long_1e6", "t × 1e6", |_, _, t| *t *= 1e6),
     ("long_1e30", "t × 1e30", |_, _, t| *t *= 1e30),
     ("sky", "t = +inf", |_, _, t| *t = f32::INFINITY),
+    ("t_max", "t = f32::MAX (a far sentinel)", |_, _, t| {
+        *t = f32::MAX
+    }),
     ("zero_length", "t = 0", |_, _, t| *t = 0.0),
 ];
 
