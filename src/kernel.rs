@@ -268,7 +268,8 @@ pub(crate) fn eval_packet<
 /// packet whose rays all stay within `depth_args_tame`'s bounds takes the arguments
 /// from it (no frexp, no exponent sums): the same bits after stage 3, for 55 instead of
 /// 93 instructions per 8-lane packet on the C peer's rays. A packet it rejects tries
-/// `depth_args_tame_wide` (sky lanes, segments from 2^-52 to 2^43, |Δ| up to 2^90; the
+/// `depth_args_tame_wide` (sky lanes, segments from 2^-52 to 2^43 or of length 0, |Δ| up
+/// to 2^90; the
 /// benches' `sky` and `stiff` sets take it for every packet); the rest (|b·u| far out
 /// of range, a non-finite input) take the general arithmetic, so such data cost at
 /// most the general path's time. Vector lanes only: the scalar path keeps
