@@ -7,58 +7,8 @@
 //! `REPS=300 target/release/examples/speedscan [FAMILY ...]`: the best of `REPS` passes
 //! over 64K rays per family, in ns per ray, and the ratio to `typical` measured between
 //! every two families (the machine drifts). With no argument, every family.
-use analytic_fog::reference::peer::{scene_desc, PeerRays};
+use analytic_fog::reference::peer::{scene_desc, PeerRays, EXTREME_FAMILIES};
 use analytic_fog::{Outputs, Rays, Scene};
-
-/// One family: a name, what it is, and how it changes a typical ray (oy, dy, t).
-type Family = (&'static str, &'static str, fn(&mut f32, &mut f32, &mut f32));
-
-const FAMILIES: [Family; 17] = [
-    (
-        "camera_1e-19",
-        "camera heights × 1e-19 (t clipped at the ground)",
-        |y, _, t| {
-            *y *= 1e-19;
-            *t = t.min(1000.0) * 1e-19;
-        },
-    ),
-    (
-        "camera_1e-19_free",
-        "camera heights × 1e-19, t as typical",
-        |y, _, _| *y *= 1e-19,
-    ),
-    (
-        "camera_1e-30",
-        "camera heights × 1e-30, t as typical",
-        |y, _, _| *y *= 1e-30,
-    ),
-    (
-        "camera_1e-38",
-        "camera heights × 1e-38 (some subnormal)",
-        |y, _, _| *y *= 1e-38,
-    ),
-    ("camera_high", "camera 1e4 above the base", |y, _, _| {
-        *y += 1e4
-    }),
-    ("camera_low", "camera 1e3 below the base", |y, _, _| {
-        *y -= 1e3
-    }),
-    ("level_1e-7", "d_up × 1e-7 (nearly level)", |_, u, _| {
-        *u *= 1e-7
-    }),
-    ("level_1e-20", "d_up × 1e-20", |_, u, _| *u *= 1e-20),
-    ("level_1e-30", "d_up × 1e-30", |_, u, _| *u *= 1e-30),
-    ("level_0", "d_up = 0", |_, u, _| *u = 0.0),
-    ("short_1e-10", "t × 1e-10", |_, _, t| *t *= 1e-10),
-    ("short_1e-30", "t × 1e-30", |_, _, t| *t *= 1e-30),
-    ("long_1e6", "t × 1e6", |_, _, t| *t *= 1e6),
-    ("long_1e30", "t × 1e30", |_, _, t| *t *= 1e30),
-    ("sky", "t = +inf", |_, _, t| *t = f32::INFINITY),
-    ("t_max", "t = f32::MAX (a far sentinel)", |_, _, t| {
-        *t = f32::MAX
-    }),
-    ("zero_length", "t = 0", |_, _, t| *t = 0.0),
-];
 
 fn time(scene: &Scene, r: &PeerRays, reps: usize) -> f64 {
     let n = r.oy.len();
@@ -100,14 +50,12 @@ fn main() {
     let scene = Scene::new(scene_desc()).unwrap();
     let typical = PeerRays::new(n, false);
     println!("family, ns/ray, typical ns/ray (before, after), ratio: what");
-    for (name, what, change) in FAMILIES {
+    for family in &EXTREME_FAMILIES {
+        let (name, what, _) = *family;
         if !wanted.is_empty() && !wanted.iter().any(|w| w == name) {
             continue;
         }
-        let mut r = PeerRays::new(n, false);
-        for i in 0..n {
-            change(&mut r.oy[i], &mut r.dy[i], &mut r.t[i]);
-        }
+        let r = PeerRays::family(n, family);
         let before = time(&scene, &typical, reps);
         let ns = time(&scene, &r, reps);
         let after = time(&scene, &typical, reps);

@@ -999,12 +999,13 @@ fn one_odd_ray_in_tame_packets() {
     };
     let sc = Scene::new(desc).unwrap();
     let n = 16;
-    // (kind, t): plain, sky, far (|Δ| ≥ 256), near (|d|·t below 2^-20).
+    // (kind, t): plain, sky, far (|Δ| ≥ 256), near (|d|·t below 2^-20), zero length.
     let kinds = [
         ("plain", 50.0),
         ("sky", f32::INFINITY),
         ("far", 1e10),
         ("near", 1e-8),
+        ("zero", 0.0),
     ];
     type Odd = (&'static str, fn(&mut Ray));
     let odds: [Odd; 7] = [
@@ -1048,6 +1049,50 @@ fn one_odd_ray_in_tame_packets() {
                         }
                     }
                 }
+            }
+        }
+    }
+}
+
+/// The families of extreme data that `examples/speedscan.rs` times (`reference::peer::
+/// EXTREME_FAMILIES`: the peer's typical rays with one input pushed to an extreme), with
+/// a sun and ambient light: the vector path, whose packets there take the plain or the
+/// widened tame stage or the general one, gives the scalar path's bits (the scalar path
+/// always runs the general arithmetic), with unit and with general directions, and every
+/// ray is within the reference's bound.
+#[test]
+fn extreme_families_x8_equals_scalar_and_reference() {
+    use analytic_fog::reference::peer::{scene_desc, PeerRays, EXTREME_FAMILIES};
+    let mut desc = scene_desc();
+    desc.lighting = Lighting {
+        ambient: Vec3::new(0.5, 0.6, 0.7),
+        sun: Some(Sun {
+            direction: Vec3::new(0.3, 0.4, -0.87),
+            radiance: Vec3::new(20.0, 18.0, 15.0),
+        }),
+    };
+    let sc = Scene::new(desc.clone()).unwrap();
+    let n = 2048;
+    for family in &EXTREME_FAMILIES {
+        let r = PeerRays::family(n, family);
+        let dx = r.dx();
+        let rays: Vec<Ray> = (0..n)
+            .map(|i| {
+                (
+                    Vec3::new(0.0, r.oy[i], 0.0),
+                    Vec3::new(dx[i], r.dy[i], 0.0),
+                    r.t[i],
+                )
+            })
+            .collect();
+        let all = [true; 3];
+        for unit in [true, false] {
+            let x8 = eval(&sc, &rays, unit, Path::X8, all);
+            let scalar = eval(&sc, &rays, unit, Path::Scalar, all);
+            let what = format!("{} (unit {unit})", family.0);
+            assert_same_bits(&x8, &scalar, all, &what).unwrap();
+            if !unit {
+                check_batch(&desc, &rays, &x8).unwrap();
             }
         }
     }

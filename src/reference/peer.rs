@@ -132,6 +132,73 @@ impl PeerRays {
     }
 }
 
+/// One family of [`EXTREME_FAMILIES`]: a name, what it is, and how it changes a typical
+/// ray (camera height, up component of the direction, t).
+pub type Family = (&'static str, &'static str, fn(&mut f32, &mut f32, &mut f32));
+
+/// Families of extreme data, each the typical rays with one thing changed, so that a
+/// slow path for one kind of extreme input shows by itself (`examples/speedscan.rs`
+/// times them; `tests/height_fog.rs` checks the vector path against the scalar one and
+/// the reference on them). Directions (√(1 − d_y²), d_y, 0) as [`PeerRays::dx`] forms
+/// them.
+pub const EXTREME_FAMILIES: [Family; 17] = [
+    (
+        "camera_1e-19",
+        "camera heights × 1e-19 (t clipped at the ground)",
+        |y, _, t| {
+            *y *= 1e-19;
+            *t = t.min(1000.0) * 1e-19;
+        },
+    ),
+    (
+        "camera_1e-19_free",
+        "camera heights × 1e-19, t as typical",
+        |y, _, _| *y *= 1e-19,
+    ),
+    (
+        "camera_1e-30",
+        "camera heights × 1e-30, t as typical",
+        |y, _, _| *y *= 1e-30,
+    ),
+    (
+        "camera_1e-38",
+        "camera heights × 1e-38 (some subnormal)",
+        |y, _, _| *y *= 1e-38,
+    ),
+    ("camera_high", "camera 1e4 above the base", |y, _, _| {
+        *y += 1e4
+    }),
+    ("camera_low", "camera 1e3 below the base", |y, _, _| {
+        *y -= 1e3
+    }),
+    ("level_1e-7", "d_up × 1e-7 (nearly level)", |_, u, _| {
+        *u *= 1e-7
+    }),
+    ("level_1e-20", "d_up × 1e-20", |_, u, _| *u *= 1e-20),
+    ("level_1e-30", "d_up × 1e-30", |_, u, _| *u *= 1e-30),
+    ("level_0", "d_up = 0", |_, u, _| *u = 0.0),
+    ("short_1e-10", "t × 1e-10", |_, _, t| *t *= 1e-10),
+    ("short_1e-30", "t × 1e-30", |_, _, t| *t *= 1e-30),
+    ("long_1e6", "t × 1e6", |_, _, t| *t *= 1e6),
+    ("long_1e30", "t × 1e30", |_, _, t| *t *= 1e30),
+    ("sky", "t = +inf", |_, _, t| *t = f32::INFINITY),
+    ("t_max", "t = f32::MAX (a far sentinel)", |_, _, t| {
+        *t = f32::MAX
+    }),
+    ("zero_length", "t = 0", |_, _, t| *t = 0.0),
+];
+
+impl PeerRays {
+    /// The first `n` typical rays changed by `family` (see [`EXTREME_FAMILIES`]).
+    pub fn family(n: usize, family: &Family) -> PeerRays {
+        let mut r = PeerRays::new(n, false);
+        for i in 0..n {
+            (family.2)(&mut r.oy[i], &mut r.dy[i], &mut r.t[i]);
+        }
+        r
+    }
+}
+
 /// The peer's xorshift generator from `seed`: uniform f32 in [0, 1) with 24 bits.
 fn uniform(seed: u64) -> impl FnMut() -> f32 {
     let mut s = seed;
