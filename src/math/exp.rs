@@ -6,10 +6,10 @@
 //! [-ln2/2, ln2/2]. Polynomial: `e^r = 1 + r + r^2 * Q(r)`, `Q` of degree 4, a Chebyshev
 //! fit from `tools/fit_poly.py` (max relative error of `Q` with f32 coefficients 1.4e-7,
 //! which is 0.13 ULP of `e^r`), evaluated as `1 + r·(1 + r·Q(r))`: two FMAs after `Q`
-//! and no `r²`, which was subnormal for |r| < 2^-63 (a microcode assist on Zen 1: a batch
-//! with the camera 1e-19 above the fog's base took 2.4× the time of a typical one,
-//! `examples/speedscan.rs`), and more accurate than `(r²·Q + r) + 1` (1.077 ULP, 0.78 %
-//! over 0.5 ULP). Scaling by `2^k` in two halves so that subnormal results are
+//! and no `r²`, which was subnormal for |r| < 2^-63 (a microcode assist on Zen 1: with
+//! cameras 1e-19 above the fog's base a batch took 1.67× the time of typical rays, 1.40×
+//! with this form alone; `examples/speedscan.rs camera_1e-19_free`), and more accurate
+//! than `(r²·Q + r) + 1` (1.077 ULP, 0.78 % over 0.5 ULP). Scaling by `2^k` in two halves so that subnormal results are
 //! rounded once. No branch: out-of-range inputs are clamped, so the time does not depend
 //! on the data.
 //!
