@@ -177,7 +177,7 @@ fn in_cache(c: &mut Criterion) {
 /// inputs the unit-direction kernel reads, the three outputs it writes). `copy_rayon`
 /// copies the arrays one after another; `copy_rayon_fused` copies all three in one loop
 /// (six streams at once, the kernel's access pattern). v4 build, three runs: the fused
-/// copy took 1.11–1.23× the plain copy, the kernel 1.81–1.93× the fused copy (README).
+/// copy took 1.11–1.23× the plain copy, the kernel 1.81–1.93× the fused copy (docs/speed-history.md).
 fn streaming(c: &mut Criterion) {
     if std::env::var("FOG_BENCH_STREAM").as_deref() == Ok("0") {
         return;

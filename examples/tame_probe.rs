@@ -15,7 +15,7 @@
 //! kernel's remaining range handling costs.
 //!
 //! `cargo run --release --example tame_probe [typical|extreme]` (and the same with
-//! `CARGO_TARGET_DIR=target/v4 RUSTFLAGS="-C target-cpu=x86-64-v4"`); README "Speed".
+//! `CARGO_TARGET_DIR=target/v4 RUSTFLAGS="-C target-cpu=x86-64-v4"`); README "Speed" and docs/speed-history.md.
 use analytic_fog::math::{exp2_nonpos, exp_neg, exp_split, exprel_neg, Lane};
 use analytic_fog::reference::peer::{scene_desc, PeerRays, BETA, FALLOFF};
 use analytic_fog::{Outputs, Rays, Scene};
