@@ -14,7 +14,7 @@
 //! and the largest error divided by what the bound allows, for τ, T and L_in (≤ 1
 //! passes).
 
-use analytic_fog::reference::{self, check_sample, SampleCheck, EPS32};
+use analytic_fog::reference::{self, check_sample, EPS32};
 use analytic_fog::{
     Component, FogSample, HeightFogLayer, Lighting, Outputs, Phase, Rays, Scene, SceneDesc, Sun,
 };
@@ -356,43 +356,10 @@ fn eval(scene: &Scene, o: Vec3, d: Vec3, t: f32) -> FogSample {
     scalar
 }
 
-/// Worst errors of one group (over the rows where the bound is not vacuous).
-#[derive(Default)]
-struct Worst {
-    rows: usize,
-    vacuous: usize,
-    kappa: f64,
-    tau_rel: f64,
-    tau_ratio: f64,
-    trans_ratio: f64,
-    insc_ratio: f64,
-}
-
-impl Worst {
-    fn add(&mut self, c: &SampleCheck, got: &FogSample) {
-        self.rows += 1;
-        if c.vacuous() {
-            self.vacuous += 1;
-            return;
-        }
-        self.kappa = self.kappa.max(c.condition);
-        // Relative error where τ is normal and finite in both.
-        for ch in 0..3 {
-            let (g, r) = (got.tau[ch] as f64, c.reference.tau[ch]);
-            if g.is_finite() && g >= f32::MIN_POSITIVE as f64 && r <= f32::MAX as f64 {
-                self.tau_rel = self.tau_rel.max((g - r).abs() / r);
-            }
-        }
-        self.tau_ratio = self.tau_ratio.max(c.tau_ratio);
-        self.trans_ratio = self.trans_ratio.max(c.trans_ratio);
-        self.insc_ratio = self.insc_ratio.max(c.insc_ratio);
-    }
-}
-
 #[test]
 fn extreme_table() {
     let rows = rows();
-    let mut groups: Vec<(&'static str, Worst)> = Vec::new();
+    let mut groups: Vec<(&'static str, reference::WorstErrors)> = Vec::new();
     let mut failures = Vec::new();
     for row in &rows {
         let scene = Scene::new(row.desc.clone()).expect("valid scene");
@@ -417,7 +384,7 @@ fn extreme_table() {
         match groups.iter_mut().find(|g| g.0 == row.group) {
             Some(g) => g.1.add(&c, &got),
             None => {
-                let mut w = Worst::default();
+                let mut w = reference::WorstErrors::default();
                 w.add(&c, &got);
                 groups.push((row.group, w));
             }
@@ -433,7 +400,14 @@ fn extreme_table() {
     for (name, w) in &groups {
         println!(
             "| {:<15} | {:>4} | {:>8} | {:>8.2e} | {:>13.2e} | {:>11.3} | {:>11.3} | {:>14.3} |",
-            name, w.rows, w.vacuous, w.kappa, w.tau_rel, w.tau_ratio, w.trans_ratio, w.insc_ratio
+            name,
+            w.samples,
+            w.vacuous,
+            w.kappa,
+            w.tau_rel,
+            w.tau_ratio,
+            w.trans_ratio,
+            w.insc_ratio
         );
     }
     println!(

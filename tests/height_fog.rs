@@ -792,38 +792,6 @@ fn quadrature_hand_values() {
 // `tests/extreme.rs`: "no digit" counts the rays where 16 · 2⁻²⁴ · κ ≥ 1 (mostly t = +∞
 // into denser fog, κ = +∞, τ = +∞), checked for the invariants and saturation only.
 
-/// Worst errors over the rows where the bound is not vacuous.
-#[derive(Default)]
-struct Worst {
-    rays: usize,
-    vacuous: usize,
-    kappa: f64,
-    tau_rel: f64,
-    tau_ratio: f64,
-    trans_ratio: f64,
-    insc_ratio: f64,
-}
-
-impl Worst {
-    fn add(&mut self, c: &reference::SampleCheck, got: &FogSample) {
-        self.rays += 1;
-        if c.vacuous() {
-            self.vacuous += 1;
-            return;
-        }
-        self.kappa = self.kappa.max(c.condition);
-        for ch in 0..3 {
-            let (g, r) = (got.tau[ch] as f64, c.reference.tau[ch]);
-            if g.is_finite() && g >= f32::MIN_POSITIVE as f64 && r <= f32::MAX as f64 {
-                self.tau_rel = self.tau_rel.max((g - r).abs() / r);
-            }
-        }
-        self.tau_ratio = self.tau_ratio.max(c.tau_ratio);
-        self.trans_ratio = self.trans_ratio.max(c.trans_ratio);
-        self.insc_ratio = self.insc_ratio.max(c.insc_ratio);
-    }
-}
-
 #[test]
 fn worst_errors_report() {
     use proptest::strategy::ValueTree;
@@ -851,7 +819,7 @@ fn worst_errors_report() {
         ),
     ];
     for (name, strategy) in ranges {
-        let mut w = Worst::default();
+        let mut w = reference::WorstErrors::default();
         for _ in 0..n {
             let (desc, sc, rays) = strategy.new_tree(&mut runner).unwrap().current();
             let out = eval(&sc, &rays, false, Path::X8, [true; 3]);
@@ -867,7 +835,14 @@ fn worst_errors_report() {
         }
         println!(
             "| {:<14} | {:>6} | {:>8} | {:>8.2e} | {:>13.2e} | {:>11.3} | {:>11.3} | {:>14.3} |",
-            name, w.rays, w.vacuous, w.kappa, w.tau_rel, w.tau_ratio, w.trans_ratio, w.insc_ratio
+            name,
+            w.samples,
+            w.vacuous,
+            w.kappa,
+            w.tau_rel,
+            w.tau_ratio,
+            w.trans_ratio,
+            w.insc_ratio
         );
     }
     // The reference against quadrature.

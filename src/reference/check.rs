@@ -195,6 +195,48 @@ impl SampleCheck {
     }
 }
 
+/// The worst errors over a set of [`SampleCheck`]s, for the tests' and reports' tables:
+/// every measure is taken over the samples whose bound is not vacuous (see
+/// [`SampleCheck::vacuous`]).
+#[derive(Clone, Debug, Default)]
+pub struct WorstErrors {
+    /// Samples added.
+    pub samples: usize,
+    /// Of them, the ones whose bound is vacuous (κ = +∞: only the invariants are checked).
+    pub vacuous: usize,
+    /// The largest condition κ.
+    pub kappa: f64,
+    /// The largest relative error of τ where τ is normal and finite in the result and
+    /// finite in the reference (channels apart).
+    pub tau_rel: f64,
+    /// The largest [`SampleCheck::tau_ratio`], [`SampleCheck::trans_ratio`] and
+    /// [`SampleCheck::insc_ratio`] (each ≤ 1 passes).
+    pub tau_ratio: f64,
+    pub trans_ratio: f64,
+    pub insc_ratio: f64,
+}
+
+impl WorstErrors {
+    /// Adds one sample: `c` is [`check_sample`]'s comparison of `got` with the reference.
+    pub fn add(&mut self, c: &SampleCheck, got: &FogSample) {
+        self.samples += 1;
+        if c.vacuous() {
+            self.vacuous += 1;
+            return;
+        }
+        self.kappa = self.kappa.max(c.condition);
+        for ch in 0..3 {
+            let (g, r) = (got.tau[ch] as f64, c.reference.tau[ch]);
+            if g.is_finite() && g >= f32::MIN_POSITIVE as f64 && r <= f32::MAX as f64 {
+                self.tau_rel = self.tau_rel.max((g - r).abs() / r);
+            }
+        }
+        self.tau_ratio = self.tau_ratio.max(c.tau_ratio);
+        self.trans_ratio = self.trans_ratio.max(c.trans_ratio);
+        self.insc_ratio = self.insc_ratio.max(c.insc_ratio);
+    }
+}
+
 /// Compares an f32 result `got` for the ray `origin + s·dir`, s in [0, t], with the
 /// reference and the bound of the module documentation. Inputs: a scene description that
 /// [`crate::Scene::new`] accepts, finite origin and direction, t ≥ 0 or +∞.

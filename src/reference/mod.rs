@@ -51,7 +51,7 @@ pub mod volume;
 
 pub use check::{
     check_sample, condition, tau_interval, tau_tolerance, up_is_axis, up_rounding, SampleCheck,
-    EPS32, L_IN_TOLERANCE, T_FLUSH,
+    WorstErrors, EPS32, L_IN_TOLERANCE, T_FLUSH,
 };
 pub use compose::{
     composition_rays, composition_scenes, marched_sample, mixed_sample, ordered_sample,
