@@ -47,6 +47,19 @@ impl Rng {
             }
         }
     }
+    /// A random unit vector at least about 6° away from ±`fwd` (a camera's up vector).
+    fn up_for(&mut self, fwd: Vec3) -> Vec3 {
+        loop {
+            let u = self.unit();
+            if u.cross(fwd).length() > 0.1 {
+                return u;
+            }
+        }
+    }
+    /// A point uniform in the cube [−h, h]³.
+    fn cube(&mut self, h: f32) -> Vec3 {
+        Vec3::new(self.range(-h, h), self.range(-h, h), self.range(-h, h))
+    }
 }
 
 fn component(rng: &mut Rng, phase: Phase) -> Component {
@@ -106,12 +119,7 @@ fn camera(rng: &mut Rng, w: usize, h: usize) -> Camera {
         rng.range(-50.0, 50.0),
     );
     let fwd = rng.unit();
-    let up = loop {
-        let u = rng.unit();
-        if u.cross(fwd).length() > 0.1 {
-            break u;
-        }
-    };
+    let up = rng.up_for(fwd);
     let aspect = w as f32 / h as f32;
     match rng.below(4) {
         0 => Camera::perspective(pos, fwd, up, rng.range(0.2, 2.8), aspect).unwrap(),
@@ -579,18 +587,9 @@ fn pixel_ray_matches_f64_unprojection() {
     for case in 0..300 {
         let (w, h) = (1 + rng.below(200), 1 + rng.below(200));
         let aspect = w as f32 / h as f32;
-        let pos = Vec3::new(
-            rng.range(-20.0, 20.0),
-            rng.range(-20.0, 20.0),
-            rng.range(-20.0, 20.0),
-        );
+        let pos = rng.cube(20.0);
         let fwd = rng.unit();
-        let up = loop {
-            let u = rng.unit();
-            if u.cross(fwd).length() > 0.1 {
-                break u;
-            }
-        };
+        let up = rng.up_for(fwd);
         let ortho = case % 2 == 1;
         let (near, far) = (rng.range(0.05, 1.0), rng.range(50.0, 2000.0));
         let (cam, proj) = if ortho {
@@ -703,18 +702,9 @@ fn inverse_view_projection_matches_constructors() {
     for case in 0..200 {
         let (w, h) = (1 + rng.below(100), 1 + rng.below(100));
         let aspect = w as f32 / h as f32;
-        let pos = Vec3::new(
-            rng.range(-5.0, 5.0),
-            rng.range(-5.0, 5.0),
-            rng.range(-5.0, 5.0),
-        );
+        let pos = rng.cube(5.0);
         let fwd = rng.unit();
-        let up = loop {
-            let u = rng.unit();
-            if u.cross(fwd).length() > 0.1 {
-                break u;
-            }
-        };
+        let up = rng.up_for(fwd);
         let view = Mat4::look_at_rh(pos, pos + fwd, up);
         let fov = rng.range(0.3, 2.5);
         let (a, b) = if case % 4 == 3 {
