@@ -392,23 +392,13 @@ fn extreme_table() {
     }
     println!();
     println!(
-        "| group           | rows | no digit | max κ    | max rel err τ | τ err/bound | T err/bound | L_in err/bound |"
+        "| group           | rows   | no digit | max κ    | max rel err τ | τ err/bound | T err/bound | L_in err/bound |"
     );
     println!(
-        "|-----------------|-----:|---------:|---------:|--------------:|------------:|------------:|---------------:|"
+        "|-----------------|-------:|---------:|---------:|--------------:|------------:|------------:|---------------:|"
     );
     for (name, w) in &groups {
-        println!(
-            "| {:<15} | {:>4} | {:>8} | {:>8.2e} | {:>13.2e} | {:>11.3} | {:>11.3} | {:>14.3} |",
-            name,
-            w.samples,
-            w.vacuous,
-            w.kappa,
-            w.tau_rel,
-            w.tau_ratio,
-            w.trans_ratio,
-            w.insc_ratio
-        );
+        println!("{}", w.markdown_row(name));
     }
     println!(
         "(bound on τ: 16·2⁻²⁴·κ = {:.2e}·κ; ratios ≤ 1 pass)",

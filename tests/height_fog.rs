@@ -803,10 +803,10 @@ fn worst_errors_report() {
     let mut runner = TestRunner::deterministic();
     println!();
     println!(
-        "| range          | rays   | no digit | max κ    | max rel err τ | τ err/bound | T err/bound | L_in err/bound |"
+        "| range           | rays   | no digit | max κ    | max rel err τ | τ err/bound | T err/bound | L_in err/bound |"
     );
     println!(
-        "|----------------|-------:|---------:|---------:|--------------:|------------:|------------:|---------------:|"
+        "|-----------------|-------:|---------:|---------:|--------------:|------------:|------------:|---------------:|"
     );
     let ranges: [(&str, BoxedStrategy<(SceneDesc, Scene, Vec<Ray>)>); 3] = [
         ("typical", case(Range::Typical, 1..=16, false)),
@@ -833,17 +833,7 @@ fn worst_errors_report() {
                 w.add(&c, &s);
             }
         }
-        println!(
-            "| {:<14} | {:>6} | {:>8} | {:>8.2e} | {:>13.2e} | {:>11.3} | {:>11.3} | {:>14.3} |",
-            name,
-            w.samples,
-            w.vacuous,
-            w.kappa,
-            w.tau_rel,
-            w.tau_ratio,
-            w.trans_ratio,
-            w.insc_ratio
-        );
+        println!("{}", w.markdown_row(name));
     }
     // The reference against quadrature.
     let (mut tau_q, mut l_q, mut cases) = (0.0f64, 0.0f64, 0);

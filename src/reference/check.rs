@@ -235,6 +235,22 @@ impl WorstErrors {
         self.trans_ratio = self.trans_ratio.max(c.trans_ratio);
         self.insc_ratio = self.insc_ratio.max(c.insc_ratio);
     }
+
+    /// One row of a Markdown table: `name`, samples, vacuous ones, κ, the relative error
+    /// of τ and the three ratios to the bound.
+    pub fn markdown_row(&self, name: &str) -> String {
+        format!(
+            "| {:<15} | {:>6} | {:>8} | {:>8.2e} | {:>13.2e} | {:>11.3} | {:>11.3} | {:>14.3} |",
+            name,
+            self.samples,
+            self.vacuous,
+            self.kappa,
+            self.tau_rel,
+            self.tau_ratio,
+            self.trans_ratio,
+            self.insc_ratio
+        )
+    }
 }
 
 /// Compares an f32 result `got` for the ray `origin + s·dir`, s in [0, t], with the
