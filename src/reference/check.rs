@@ -209,10 +209,11 @@ pub struct WorstErrors {
     /// The largest relative error of τ where τ is normal and finite in the result and
     /// finite in the reference (channels apart).
     pub tau_rel: f64,
-    /// The largest [`SampleCheck::tau_ratio`], [`SampleCheck::trans_ratio`] and
-    /// [`SampleCheck::insc_ratio`] (each ≤ 1 passes).
+    /// The largest [`SampleCheck::tau_ratio`] (≤ 1 passes).
     pub tau_ratio: f64,
+    /// The largest [`SampleCheck::trans_ratio`] (≤ 1 passes).
     pub trans_ratio: f64,
+    /// The largest [`SampleCheck::insc_ratio`] (≤ 1 passes).
     pub insc_ratio: f64,
 }
 
