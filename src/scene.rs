@@ -358,7 +358,7 @@ pub struct Scene {
     /// The framebuffer pass uses the batch kernel even where its own one-layer kernel
     /// applies (`Scene::with_batch_kernel_pass`).
     pub(crate) exact_pass: bool,
-    /// The pass's own kernel runs 8 lanes wide even in a 16-lane build
+    /// The pass's own kernel runs 8 lanes wide instead of 16
     /// (`Scene::with_pass_lanes_8`).
     pub(crate) pass_lanes_8: bool,
 }
@@ -685,8 +685,8 @@ impl Scene {
     }
 
     /// This scene with the framebuffer pass's own one-layer kernel running 8 lanes wide
-    /// where the build would run it 16 wide (AVX-512). For tests and benchmarks: both
-    /// widths give the same bits.
+    /// instead of 16 (`wide::f32x16`, one AVX-512 register or two AVX2 ones). For tests
+    /// and benchmarks: both widths give the same bits.
     #[doc(hidden)]
     pub fn with_pass_lanes_8(mut self) -> Scene {
         self.pass_lanes_8 = true;

@@ -51,13 +51,24 @@
 
 use super::camera::{DepthPlan, FramePlan, RowPlan};
 use super::RowColour;
-use crate::kernel::{Single, Wide};
+use crate::kernel::Single;
 use crate::light::Phase;
 use crate::math::{exp2_nonpos, exp2m1, exp_neg_fast, Lane};
 use crate::medium::volume::clamp_colour;
 use crate::scene::{Scene, UpAxis};
 use crate::Tier;
 use wide::{f32x16, f32x8};
+
+/// The lane type of this kernel: 16 lanes in every build. With AVX-512 that is one zmm
+/// register (`kernel::Wide`); in an AVX2 build, `wide` keeps an `f32x16` as two ymm
+/// halves and issues each operation for both back to back, so every dependency chain of
+/// a packet (the reciprocal square roots, `exp2m1` and its division, `exp2_nonpos`) runs
+/// next to an independent one in program order, which a small out-of-order window (Zen
+/// 1's) overlaps better than the blocks' packets alone: `pass/fog_single` 2 to 5 % faster
+/// than `pass/fog_single_lanes8` in the same binary (twenty-first session, Zen 1; README
+/// "Speed of the pass"). Same bits at both widths (see [`PassLane`]). The batch kernel
+/// measured 4 % slower with `f32x16` in the AVX2 build and stays at 8 lanes there.
+type PassWide = f32x16;
 
 /// Rays are clamped to a frame's T_BIG, at most this (see the module documentation).
 const T_BIG_MAX: f32 = 1e37;
@@ -145,7 +156,7 @@ fn rsqrt<W: PassLane>(x: W) -> W {
 
 /// What the pass's own kernel needs of a lane type beyond [`Lane`]: the estimate of
 /// 1/√x and the interleaved-RGB layouts. Implemented for `f32x8` and `f32x16`; the kernel
-/// runs [`Wide`] (16 lanes in an AVX-512 build), and gives the same bits at both widths:
+/// runs [`PassWide`] (16 lanes), and gives the same bits at both widths:
 /// every operation is the same IEEE operation per element, and the 16-lane estimate is
 /// the 8-lane instruction (`vrsqrtps`) on each half, not AVX-512's more precise
 /// `vrsqrt14ps` (wide's `f32x16::recip_sqrt` is a square root and a division there).
@@ -256,7 +267,7 @@ pub(crate) struct HeightPass {
     fast: bool,
     /// The depth conversion: [`LINEAR`], [`DISTANCE`] or [`NDC`] with its constants.
     depth: usize,
-    /// Run with 8 lanes whatever the build ([`Scene::with_pass_lanes_8`]).
+    /// Run with 8 lanes instead of [`PassWide`]'s 16 ([`Scene::with_pass_lanes_8`]).
     x8: bool,
     /// NDC: z = near / (depth·k + q), sky where depth·sky_s ≥ sky_at.
     ndc: [f32; 5],
@@ -398,31 +409,40 @@ impl HeightPass {
     }
 }
 
-/// Fogs one row (`depth`: its depth values, `out`: its colour) with [`HeightPass`], in
-/// packets of [`N`] pixels; the tail (width % N) padded into one more packet whose dead
-/// lanes are dropped.
+/// Fogs the rows `y0`, `y0 + 1`, … of `rows` (each row's depth values and colour) with
+/// [`HeightPass`], in packets of [`PassWide`] pixels; a row's tail (width % 16) padded
+/// into one more packet whose dead lanes are dropped.
 #[inline(never)]
-pub(crate) fn fog_row<R: RowColour>(
+pub(crate) fn fog_rows<'a, R: RowColour>(
     hp: &HeightPass,
     plan: &FramePlan,
-    y: usize,
-    depth: &[f32],
-    out: R,
+    y0: usize,
+    rows: impl Iterator<Item = (&'a [f32], R)>,
 ) {
     // Monomorphized per number of sunlit phase functions (none, one, more), grey or RGB
-    // and tier: the frame's choice, taken once per row. (The depth convention is a
+    // and tier: the frame's choice, taken once per band of rows. (The depth convention is a
     // predictable branch per packet: as a const generic it measured no faster.)
     macro_rules! go {
         ($ph:literal) => {
             match (hp.x8, hp.grey, hp.fast) {
-                (false, false, false) => row::<R, Wide, $ph, false, false>(hp, plan, y, depth, out),
-                (false, false, true) => row::<R, Wide, $ph, false, true>(hp, plan, y, depth, out),
-                (false, true, false) => row::<R, Wide, $ph, true, false>(hp, plan, y, depth, out),
-                (false, true, true) => row::<R, Wide, $ph, true, true>(hp, plan, y, depth, out),
-                (true, false, false) => row::<R, f32x8, $ph, false, false>(hp, plan, y, depth, out),
-                (true, false, true) => row::<R, f32x8, $ph, false, true>(hp, plan, y, depth, out),
-                (true, true, false) => row::<R, f32x8, $ph, true, false>(hp, plan, y, depth, out),
-                (true, true, true) => row::<R, f32x8, $ph, true, true>(hp, plan, y, depth, out),
+                (false, false, false) => {
+                    rows_with::<R, PassWide, $ph, false, false>(hp, plan, y0, rows)
+                }
+                (false, false, true) => {
+                    rows_with::<R, PassWide, $ph, false, true>(hp, plan, y0, rows)
+                }
+                (false, true, false) => {
+                    rows_with::<R, PassWide, $ph, true, false>(hp, plan, y0, rows)
+                }
+                (false, true, true) => {
+                    rows_with::<R, PassWide, $ph, true, true>(hp, plan, y0, rows)
+                }
+                (true, false, false) => {
+                    rows_with::<R, f32x8, $ph, false, false>(hp, plan, y0, rows)
+                }
+                (true, false, true) => rows_with::<R, f32x8, $ph, false, true>(hp, plan, y0, rows),
+                (true, true, false) => rows_with::<R, f32x8, $ph, true, false>(hp, plan, y0, rows),
+                (true, true, true) => rows_with::<R, f32x8, $ph, true, true>(hp, plan, y0, rows),
             }
         };
     }
@@ -430,6 +450,22 @@ pub(crate) fn fog_row<R: RowColour>(
         0 => go!(0),
         1 => go!(1),
         _ => go!(2),
+    }
+}
+
+/// The rows of [`fog_rows`] with one instantiation of [`row`]: the frame's constants
+/// copied to a local (kept in registers) and the block buffers made once per band.
+#[inline(always)]
+fn rows_with<'a, R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const FAST: bool>(
+    hp: &HeightPass,
+    plan: &FramePlan,
+    y0: usize,
+    rows: impl Iterator<Item = (&'a [f32], R)>,
+) {
+    let hp = *hp;
+    let mut bufs = Buffers::new(&hp);
+    for (k, (depth, out)) in rows.enumerate() {
+        row::<R, W, PH, GREY, FAST>(&hp, plan, y0 + k, depth, out, &mut bufs);
     }
 }
 
@@ -456,16 +492,15 @@ fn row<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const FAST:
     y: usize,
     depth: &[f32],
     mut out: R,
+    bufs: &mut Buffers<W>,
 ) {
-    let hp = *hp;
     let rp = plan.row(y);
-    let mut bufs = Buffers::new(&hp);
     let width = depth.len();
     let n_lanes = W::LANES;
     let full = width / n_lanes * n_lanes;
     for (b, block) in depth[..full].chunks(n_lanes * BLOCK).enumerate() {
         let x = b * n_lanes * BLOCK;
-        block_of::<R, W, PH, GREY, FAST>(&hp, plan, &rp, x, block, n_lanes, &mut bufs, &mut out);
+        block_of::<R, W, PH, GREY, FAST>(hp, plan, &rp, x, block, n_lanes, bufs, &mut out);
     }
     if full < width {
         // The tail, padded into one packet (depth 0 in the dead lanes, dropped).
@@ -473,7 +508,7 @@ fn row<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const FAST:
         let padded = &mut padded[..n_lanes];
         padded[..width - full].copy_from_slice(&depth[full..]);
         let n = width - full;
-        block_of::<R, W, PH, GREY, FAST>(&hp, plan, &rp, full, padded, n, &mut bufs, &mut out);
+        block_of::<R, W, PH, GREY, FAST>(hp, plan, &rp, full, padded, n, bufs, &mut out);
     }
 }
 

@@ -358,12 +358,18 @@ fn fog_pass(
                     fog_band_tiled(scene, &plan, cull, bi * band, d, &mut rows);
                     return;
                 }
-                for (k, dr) in d.chunks_exact(width).enumerate() {
-                    let s = k * width..(k + 1) * width;
-                    let row = Planar([&mut r[s.clone()], &mut g[s.clone()], &mut b[s]]);
-                    match hp {
-                        Some(hp) => height::fog_row(hp, &plan, bi * band + k, dr, row),
-                        None => fog_row(scene, &plan, bi * band + k, dr, row),
+                let rows = d
+                    .chunks_exact(width)
+                    .zip(r.chunks_exact_mut(width))
+                    .zip(g.chunks_exact_mut(width))
+                    .zip(b.chunks_exact_mut(width))
+                    .map(|(((dr, r), g), b)| (dr, Planar([r, g, b])));
+                match hp {
+                    Some(hp) => height::fog_rows(hp, &plan, bi * band, rows),
+                    None => {
+                        for (k, (dr, row)) in rows.enumerate() {
+                            fog_row(scene, &plan, bi * band + k, dr, row);
+                        }
                     }
                 }
             };
@@ -409,14 +415,16 @@ fn interleaved<const C: usize>(
             fog_band_tiled(scene, plan, cull, bi * band, d, &mut rows);
             return;
         }
-        for (k, (cr, dr)) in c
-            .chunks_exact_mut(C * width)
-            .zip(d.chunks_exact(width))
-            .enumerate()
-        {
-            match hp {
-                Some(hp) => height::fog_row(hp, plan, bi * band + k, dr, Interleaved::<C>(cr)),
-                None => fog_row(scene, plan, bi * band + k, dr, Interleaved::<C>(cr)),
+        let rows = d
+            .chunks_exact(width)
+            .zip(c.chunks_exact_mut(C * width))
+            .map(|(dr, cr)| (dr, Interleaved::<C>(cr)));
+        match hp {
+            Some(hp) => height::fog_rows(hp, plan, bi * band, rows),
+            None => {
+                for (k, (dr, row)) in rows.enumerate() {
+                    fog_row(scene, plan, bi * band + k, dr, row);
+                }
             }
         }
     };
