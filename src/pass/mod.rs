@@ -4,7 +4,8 @@
 //! linear-light colour buffer ([`ColourBuffer`]) and fogs the colour in place:
 //! `L = L_surface · T + L_in` per channel, with T and L_in the fog of the pixel's ray from
 //! the camera to the surface (t = +∞ for sky pixels). Rays are generated 8 pixels at a
-//! time in registers (16 in the own kernel of an AVX-512 build; no per-pixel ray buffer), bands of rows run in parallel with rayon
+//! time in registers (16 in the own kernel, two halves of 8 in an AVX2 build; no per-pixel
+//! ray buffer), bands of rows run in parallel with rayon
 //! ([`Scene::fog_pass_single`]: on the calling thread), and everything that does not
 //! change per pixel (the NDC mapping, the camera's ray field, the depth conversion
 //! constants; the scene's phase and colour constants live in the compiled [`Scene`]) is
