@@ -5,7 +5,7 @@
 //!
 //! `cargo build --release --example passloop && valgrind --tool=callgrind
 //! target/release/examples/passloop` (then `callgrind_annotate --inclusive=yes` and look
-//! for `height::fog_row`; a frame is 259,200 packets of 8 pixels).
+//! for `height::fog_rows`; a frame is 2,073,600 pixels, 259,200 packets of 8).
 //! `passloop batch` runs the batch API's kernel (`Scene::with_batch_kernel_pass`).
 //! `FRAMES=n` runs n frames and prints the best frame's time (for `perf record`);
 //! `EYE_Y=y` puts the eye at height y (default 2).

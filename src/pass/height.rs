@@ -75,7 +75,7 @@ const T_BIG_MAX: f32 = 1e37;
 /// Below this, E(Δ) = 1 in f32; keeps the division away from 0/0.
 const TINY: f32 = 8.673_617e-19; // 2^-60
 
-/// The most phase functions [`fog_row`] takes (as `Single`).
+/// The most phase functions [`fog_rows`] takes (as `Single`).
 const MAX_PHASES: usize = 4;
 
 /// One phase function with its colour weights, in the form
@@ -244,7 +244,7 @@ impl PassLane for f32x16 {
     }
 }
 
-/// A frame's constants for [`fog_row`].
+/// A frame's constants for [`fog_rows`].
 #[derive(Clone, Copy)]
 pub(crate) struct HeightPass {
     /// σ_c · ρ₀ · log2(e) per channel: τ_c = k_c·g' (the Fast tier's `exp_neg_fast`).
