@@ -63,8 +63,8 @@ use wide::{f32x16, f32x8};
 /// register (`kernel::Wide`); in an AVX2 build, `wide` keeps an `f32x16` as two ymm
 /// halves and issues each operation for both back to back, so every dependency chain of
 /// a packet (the reciprocal square roots, `exp2m1` and its division, `exp2_nonpos`) runs
-/// next to an independent one in program order, which a small out-of-order window (Zen
-/// 1's) overlaps better than the blocks' packets alone: `pass/fog_single` 2 to 5 % faster
+/// next to an independent one in program order (the likely reason, not measured: a small
+/// out-of-order window like Zen 1's overlaps those better than the blocks' packets alone): `pass/fog_single` 2 to 5 % faster
 /// than `pass/fog_single_lanes8` in the same binary (twenty-first session, Zen 1; README
 /// "Speed of the pass"). Same bits at both widths (see [`PassLane`]). The batch kernel
 /// measured 3 to 6 % slower with `f32x16` in the AVX2 build and stays at 8 lanes there.
