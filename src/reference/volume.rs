@@ -463,14 +463,20 @@ pub fn volume_depth(
     d: DVec3,
     t: f64,
 ) -> f64 {
-    let Some(a) = affine(shape) else {
+    let Some((a, cs)) = affines(shape, cuts) else {
         return f64::NAN;
     };
-    let cs: Option<Vec<Affine>> = cuts.iter().map(|c| affine(c).map(|x| x.0)).collect();
-    let Some(cs) = cs else {
-        return f64::NAN;
-    };
-    depth_aff(&a.0, profile, &cs, o, d, t)
+    depth_aff(&a, profile, &cs, o, d, t)
+}
+
+/// The maps of a shape and of its cut-outs, `None` if `Scene::new` would reject one.
+fn affines(shape: &Shape, cuts: &[Shape]) -> Option<(Affine, Vec<Affine>)> {
+    let a = affine(shape)?.0;
+    let cs = cuts
+        .iter()
+        .map(|c| affine(c).map(|x| x.0))
+        .collect::<Option<_>>()?;
+    Some((a, cs))
 }
 
 /// The same integral by adaptive quadrature only (the cross-check of the closed forms).
@@ -482,16 +488,12 @@ pub fn volume_depth_quad(
     d: DVec3,
     t: f64,
 ) -> f64 {
-    let Some(a) = affine(shape) else {
+    let Some((a, cs)) = affines(shape, cuts) else {
         return f64::NAN;
     };
-    let cs: Option<Vec<Affine>> = cuts.iter().map(|c| affine(c).map(|x| x.0)).collect();
-    let Some(cs) = cs else {
-        return f64::NAN;
-    };
-    pieces(&a.0, &cs, o, d, t)
+    pieces(&a, &cs, o, d, t)
         .into_iter()
-        .map(|(s0, s1)| piece_quad(&a.0, profile, o, d, s0, s1))
+        .map(|(s0, s1)| piece_quad(&a, profile, o, d, s0, s1))
         .sum()
 }
 
