@@ -79,7 +79,8 @@
 //! With AVX-512 enabled (`-C target-cpu=x86-64-v4`, or `native` on such a CPU) the batch
 //! kernels run 16 lanes per instruction (`wide::f32x16`), with the same bits; the binary
 //! then needs AVX-512 to run. (The framebuffer pass's own kernel runs `f32x16` in every
-//! build: two 8-lane halves per operation with AVX2.) [`simd_level`] reports what was compiled in.
+//! build: two 8-lane halves per operation with AVX2.) [`simd_level`] reports what was
+//! compiled in.
 //!
 //! The crate's only `unsafe` code is in `math::lane`'s AVX-512 module (compiled only
 //! where the build enables AVX-512F): two blocks that call `vgetexpps`, `vgetmantps`

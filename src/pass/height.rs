@@ -64,10 +64,10 @@ use wide::{f32x16, f32x8};
 /// halves and issues each operation for both back to back, so every dependency chain of
 /// a packet (the reciprocal square roots, `exp2m1` and its division, `exp2_nonpos`) runs
 /// next to an independent one in program order (the likely reason, not measured: a small
-/// out-of-order window like Zen 1's overlaps those better than the blocks' packets alone): `pass/fog_single` 2 to 5 % faster
-/// than `pass/fog_single_lanes8` in the same binary (twenty-first session, Zen 1; README
-/// "Speed of the pass"). Same bits at both widths (see [`PassLane`]). The batch kernel
-/// measured 3 to 6 % slower with `f32x16` in the AVX2 build and stays at 8 lanes there.
+/// out-of-order window like Zen 1's overlaps those better than the blocks' packets
+/// alone): `pass/fog_single` 2 to 5 % faster than `pass/fog_single_lanes8` in the same
+/// binary (twenty-first session, Zen 1; README "Speed of the pass"). Same bits at both
+/// widths (see [`PassLane`]). The batch kernel measured 3 to 6 % slower with `f32x16` in the AVX2 build and stays at 8 lanes there.
 type PassWide = f32x16;
 
 /// Rays are clamped to a frame's T_BIG, at most this (see the module documentation).
@@ -419,37 +419,30 @@ pub(crate) fn fog_rows<'a, R: RowColour>(
     y0: usize,
     rows: impl Iterator<Item = (&'a [f32], R)>,
 ) {
-    // Monomorphized per number of sunlit phase functions (none, one, more), grey or RGB
-    // and tier: the frame's choice, taken once per band of rows. (The depth convention is a
-    // predictable branch per packet: as a const generic it measured no faster.)
-    macro_rules! go {
-        ($ph:literal) => {
-            match (hp.x8, hp.grey, hp.fast) {
-                (false, false, false) => {
-                    rows_with::<R, PassWide, $ph, false, false>(hp, plan, y0, rows)
-                }
-                (false, false, true) => {
-                    rows_with::<R, PassWide, $ph, false, true>(hp, plan, y0, rows)
-                }
-                (false, true, false) => {
-                    rows_with::<R, PassWide, $ph, true, false>(hp, plan, y0, rows)
-                }
-                (false, true, true) => {
-                    rows_with::<R, PassWide, $ph, true, true>(hp, plan, y0, rows)
-                }
-                (true, false, false) => {
-                    rows_with::<R, f32x8, $ph, false, false>(hp, plan, y0, rows)
-                }
-                (true, false, true) => rows_with::<R, f32x8, $ph, false, true>(hp, plan, y0, rows),
-                (true, true, false) => rows_with::<R, f32x8, $ph, true, false>(hp, plan, y0, rows),
-                (true, true, true) => rows_with::<R, f32x8, $ph, true, true>(hp, plan, y0, rows),
-            }
-        };
+    // Monomorphized per lane width, number of sunlit phase functions (none, one, more),
+    // grey or RGB and tier: the frame's choice, taken once per band of rows. (The depth
+    // convention is a predictable branch per packet: as a const generic it measured no
+    // faster.)
+    fn flags<'a, R: RowColour, W: PassLane, const PH: usize>(
+        hp: &HeightPass,
+        plan: &FramePlan,
+        y0: usize,
+        rows: impl Iterator<Item = (&'a [f32], R)>,
+    ) {
+        match (hp.grey, hp.fast) {
+            (false, false) => rows_with::<R, W, PH, false, false>(hp, plan, y0, rows),
+            (false, true) => rows_with::<R, W, PH, false, true>(hp, plan, y0, rows),
+            (true, false) => rows_with::<R, W, PH, true, false>(hp, plan, y0, rows),
+            (true, true) => rows_with::<R, W, PH, true, true>(hp, plan, y0, rows),
+        }
     }
-    match hp.n_phases {
-        0 => go!(0),
-        1 => go!(1),
-        _ => go!(2),
+    match (hp.x8, hp.n_phases) {
+        (false, 0) => flags::<R, PassWide, 0>(hp, plan, y0, rows),
+        (false, 1) => flags::<R, PassWide, 1>(hp, plan, y0, rows),
+        (false, _) => flags::<R, PassWide, 2>(hp, plan, y0, rows),
+        (true, 0) => flags::<R, f32x8, 0>(hp, plan, y0, rows),
+        (true, 1) => flags::<R, f32x8, 1>(hp, plan, y0, rows),
+        (true, _) => flags::<R, f32x8, 2>(hp, plan, y0, rows),
     }
 }
 
