@@ -14,7 +14,10 @@
 //! header. The sweeps are split over all cores with rayon (a few minutes on 2 cores in
 //! release; far too slow in debug, hence `#[ignore]`).
 
+mod common;
+
 use analytic_fog::math::{self, Lane};
+use common::ulp_of;
 use rayon::prelude::*;
 use wide::f32x8;
 
@@ -33,17 +36,6 @@ const CHUNK: u64 = 1 << 16;
 
 // ---------------------------------------------------------------------------------------
 // Error measure and statistics
-
-/// The ULP of an f32 (2^-149 for zero and subnormals).
-fn ulp_of(c: f32) -> f64 {
-    let a = c.abs();
-    if a < f32::MIN_POSITIVE {
-        2f64.powi(-149)
-    } else {
-        let e = ((a.to_bits() >> 23) & 0xff) as i32 - 127;
-        2f64.powi(e - 23)
-    }
-}
 
 /// |y − r| in ULP of the correctly rounded f32 result `r as f32`. An overflow (`±inf`)
 /// counts as ±2^128 where `r` is finite, so that an early or late overflow costs what the

@@ -15,7 +15,10 @@
 //! A fast sampled version of each sweep (every 4099th bit pattern) runs in the normal test
 //! suite, so that a regression shows up without the long run.
 
+mod common;
+
 use analytic_fog::math;
+use common::ulp_of;
 use rayon::prelude::*;
 use wide::f32x8;
 
@@ -28,16 +31,6 @@ const ERFC_SUBNORMAL_ULP: f64 = 2048.0;
 const ASINH_MAX_ULP: f64 = 2.0;
 const LOG1P_MAX_ULP: f64 = 1.0;
 const LOG_MAX_ULP: f64 = 1.0;
-
-fn ulp_of(c: f32) -> f64 {
-    let a = c.abs();
-    if a < f32::MIN_POSITIVE {
-        2f64.powi(-149)
-    } else {
-        let e = ((a.to_bits() >> 23) & 0xff) as i32 - 127;
-        2f64.powi(e - 23)
-    }
-}
 
 /// |y − r| in ULP of `r as f32`; infinities and NaN must match exactly.
 fn ulp_err(y: f32, r: f64) -> f64 {

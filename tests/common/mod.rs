@@ -89,3 +89,15 @@ impl Rng {
         )
     }
 }
+
+/// The ULP of an f32 (2^-149 for zero and subnormals): the unit of the exhaustive sweeps'
+/// errors.
+pub fn ulp_of(c: f32) -> f64 {
+    let a = c.abs();
+    if a < f32::MIN_POSITIVE {
+        2f64.powi(-149)
+    } else {
+        let e = ((a.to_bits() >> 23) & 0xff) as i32 - 127;
+        2f64.powi(e - 23)
+    }
+}
