@@ -67,7 +67,8 @@ use wide::{f32x16, f32x8};
 /// out-of-order window like Zen 1's overlaps those better than the blocks' packets
 /// alone): `pass/fog_single` 2 to 5 % faster than `pass/fog_single_lanes8` in the same
 /// binary (twenty-first session, Zen 1; README "Speed of the pass"). Same bits at both
-/// widths (see [`PassLane`]). The batch kernel measured 3 to 6 % slower with `f32x16` in the AVX2 build and stays at 8 lanes there.
+/// widths (see [`PassLane`]). The batch kernel measured 3 to 6 % slower with `f32x16` in
+/// the AVX2 build and stays at 8 lanes there.
 type PassWide = f32x16;
 
 /// Rays are clamped to a frame's T_BIG, at most this (see the module documentation).
