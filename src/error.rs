@@ -7,22 +7,43 @@ use core::fmt;
 #[derive(Clone, Debug, PartialEq)]
 pub enum SceneError {
     /// A value is NaN or infinite.
-    NonFinite { field: String, value: f32 },
+    NonFinite {
+        /// The field's path.
+        field: String,
+        /// The value given.
+        value: f32,
+    },
     /// A value that must be non-negative is negative.
-    Negative { field: String, value: f32 },
+    Negative {
+        /// The field's path.
+        field: String,
+        /// The value given.
+        value: f32,
+    },
     /// A vector that must have a direction is zero (or too small to normalize).
-    ZeroVector { field: String },
+    ZeroVector {
+        /// The field's path.
+        field: String,
+    },
     /// A value is outside its allowed range.
     OutOfRange {
+        /// The field's path.
         field: String,
+        /// The value given.
         value: f32,
+        /// The allowed range, as the message prints it (e.g. `"(-1, 1)"`).
         range: &'static str,
     },
     /// A list that must not be empty is empty.
-    Empty { field: String },
+    Empty {
+        /// The list's path.
+        field: String,
+    },
     /// A field that needs another one that is not set (e.g. a lobe without a sun).
     Requires {
+        /// The field's path.
         field: String,
+        /// What it needs, as the message prints it (e.g. `"lighting.sun"`).
         requires: &'static str,
     },
 }
@@ -73,8 +94,11 @@ impl std::error::Error for SceneError {}
 pub enum BatchError {
     /// A slice's length differs from the batch's ray count.
     LengthMismatch {
+        /// The slice's name (`"oy"`, `"T_g"`, ...).
         field: &'static str,
+        /// The batch's ray count (the length of `t`).
         expected: usize,
+        /// The slice's length.
         found: usize,
     },
 }
@@ -103,24 +127,42 @@ pub enum PassError {
     /// A buffer's length does not fit the frame: `buffer` is `"depth"`, `"colour"` (RGB or
     /// RGBA) or `"colour.r"`, `"colour.g"`, `"colour.b"` (planar).
     BufferLength {
+        /// The buffer's name.
         buffer: &'static str,
+        /// The length the frame needs (pixels times the buffer's channels).
         expected: usize,
+        /// The buffer's length.
         found: usize,
+        /// The frame's width in pixels.
         width: usize,
+        /// The frame's height in pixels.
         height: usize,
     },
     /// `width × height` (times the channels of a buffer) does not fit in `usize`.
-    FrameTooLarge { width: usize, height: usize },
-    /// A pixel outside the frame was asked for.
-    PixelOutside {
-        x: usize,
-        y: usize,
+    FrameTooLarge {
+        /// The frame's width in pixels.
         width: usize,
+        /// The frame's height in pixels.
         height: usize,
     },
-    /// A camera parameter or depth convention parameter is unusable: `field` names it
-    /// (`"fov_y"`, `"depth.near"`, ...), `reason` says why.
-    InvalidParameter { field: &'static str, reason: String },
+    /// A pixel outside the frame was asked for.
+    PixelOutside {
+        /// The pixel's column.
+        x: usize,
+        /// The pixel's row.
+        y: usize,
+        /// The frame's width in pixels.
+        width: usize,
+        /// The frame's height in pixels.
+        height: usize,
+    },
+    /// A camera parameter or depth convention parameter is unusable.
+    InvalidParameter {
+        /// The parameter's name (`"fov_y"`, `"depth.near"`, ...).
+        field: &'static str,
+        /// Why it cannot be used.
+        reason: String,
+    },
 }
 
 impl fmt::Display for PassError {

@@ -87,6 +87,8 @@
 //! and `vscalefps`, which `wide` does not expose.
 
 #![deny(unsafe_code)]
+// Every public item is documented (`cargo clippy -- -D warnings` in `.ci/run` enforces it).
+#![warn(missing_docs)]
 // Channel loops index several parallel [_; 3] arrays; coefficients are written with all
 // the digits of their derivation.
 #![allow(clippy::needless_range_loop, clippy::excessive_precision)]

@@ -141,8 +141,10 @@ pub struct SceneDesc {
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum Composition {
+    /// The τ-weighted mix of the media's fog colours (see above).
     #[default]
     Mix,
+    /// The fog volumes composited front to back (see above).
     Ordered,
 }
 
@@ -224,8 +226,10 @@ fn one() -> f32 {
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum Tier {
+    /// The stated bounds (see above).
     #[default]
     Accurate,
+    /// Shorter polynomials, within 1e-4 (see above).
     Fast,
 }
 

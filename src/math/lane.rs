@@ -32,6 +32,7 @@ pub trait Lane:
     /// Number of lanes.
     const LANES: usize;
 
+    /// `v` in every lane.
     fn splat(v: f32) -> Self;
     /// Loads `LANES` values from the front of `s` (which must hold at least that many).
     fn load(s: &[f32]) -> Self;
@@ -48,18 +49,26 @@ pub trait Lane:
     fn min(self, b: Self) -> Self;
     /// `a > b ? a : b` (x86 `maxps` semantics: the second operand wins on NaN).
     fn max(self, b: Self) -> Self;
+    /// `|self|` (the sign bit cleared).
     fn abs(self) -> Self;
+    /// `-self` (the sign bit flipped).
     fn neg(self) -> Self;
+    /// The correctly rounded square root.
     fn sqrt(self) -> Self;
     /// Round to the nearest integer, ties to even.
     fn round(self) -> Self;
     /// The magnitude of `self` with the sign of `sign`.
     fn copysign(self, sign: Self) -> Self;
 
+    /// `self < b` (false where either is NaN).
     fn lt(self, b: Self) -> Self::Mask;
+    /// `self <= b` (false where either is NaN).
     fn le(self, b: Self) -> Self::Mask;
+    /// `self > b` (false where either is NaN).
     fn gt(self, b: Self) -> Self::Mask;
+    /// `self >= b` (false where either is NaN).
     fn ge(self, b: Self) -> Self::Mask;
+    /// `self == b` (false where either is NaN; +0 equals −0).
     fn eq(self, b: Self) -> Self::Mask;
     /// Ordered not-equal (`a < b || a > b`): false when either operand is NaN, in both
     /// widths, so NaN lanes take the same branch in the scalar and 8-lane paths.

@@ -37,16 +37,30 @@ pub enum Falloff {
     /// (0 ≤ start < end). As a medium its optical depth −ln((end − s)/(end − start)) is
     /// +∞ beyond `end`, so combined with other media everything beyond `end` is fully
     /// fogged and takes this fog's colour.
-    Linear { start: f32, end: f32 },
+    Linear {
+        /// Where the fog begins, a distance along the ray (≥ 0).
+        start: f32,
+        /// Where it becomes opaque (> `start`).
+        end: f32,
+    },
     /// Optical depth `density · distance` (homogeneous fog; density ≥ 0).
-    Exponential { density: f32 },
+    Exponential {
+        /// Extinction per unit distance (≥ 0).
+        density: f32,
+    },
     /// Optical depth `(density · distance)²` (fog that thickens with distance).
-    ExponentialSquared { density: f32 },
+    ExponentialSquared {
+        /// Its square root per unit distance (≥ 0).
+        density: f32,
+    },
     /// Separate extinction and in-scattering (RGB, per unit distance): T = e^(−extinction ·
     /// distance), in-scattered light `colour · (1 − e^(−inscattering · distance))`.
     Atmospheric {
+        /// Extinction per unit distance, per channel (≥ 0).
         #[cfg_attr(feature = "serde", serde(with = "crate::serde_rgb"))]
         extinction: Vec3,
+        /// The rate at which the in-scattered light approaches the fog colour, per unit
+        /// distance and channel (≥ 0).
         #[cfg_attr(feature = "serde", serde(with = "crate::serde_rgb"))]
         inscattering: Vec3,
     },
@@ -151,7 +165,9 @@ impl Falloff {
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct DistanceFog {
+    /// How the fog's optical depth grows with distance.
     pub falloff: Falloff,
+    /// The in-scattered radiance of an opaque fog (RGB, ≥ 0).
     #[cfg_attr(feature = "serde", serde(with = "crate::serde_rgb"))]
     pub colour: Vec3,
 }

@@ -65,7 +65,14 @@ pub enum DepthConvention {
     /// projection's planes as view depths. Perspective: 0 < near < far, `far` may be
     /// `+inf` (an infinite projection). Orthographic: both finite, near < far. Values at
     /// or beyond the far plane (≥ 1 standard, ≤ 0 reversed) are sky.
-    NdcZeroToOne { near: f32, far: f32, reversed: bool },
+    NdcZeroToOne {
+        /// The near plane's view depth.
+        near: f32,
+        /// The far plane's view depth (`+inf` for an infinite perspective projection).
+        far: f32,
+        /// Reversed-Z: 1 at `near`, 0 at `far`.
+        reversed: bool,
+    },
 }
 
 /// The ray the fog pass evaluates for one pixel: `origin + s · direction`, s in [0, t].

@@ -12,8 +12,11 @@ use glam::DVec3;
 /// The reference result of a whole scene for one ray.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneSample {
+    /// Optical depth per channel.
     pub tau: [f64; 3],
+    /// Transmittance e^(−τ) per channel.
     pub transmittance: [f64; 3],
+    /// In-scattered radiance per channel.
     pub inscattering: [f64; 3],
     /// The largest fog colour that enters the ray's in-scattering (layers, volumes,
     /// distance fog, lobe): the scale of the L_in tolerance.

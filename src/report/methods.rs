@@ -28,6 +28,7 @@ pub enum Method {
 }
 
 impl Method {
+    /// The method's name in the tables and files (`"accurate_x8"`, `"march_64"`, ...).
     pub fn name(&self) -> String {
         match self {
             Method::AccurateX8 => "accurate_x8".into(),
@@ -398,14 +399,18 @@ pub fn reference_ray(desc: &SceneDesc, o: DVec3, d: DVec3, t: f64) -> [[f64; 3];
 /// What a method needs to run a kernel: the compiled scene, its description and its f32
 /// form.
 pub struct Evaluators {
+    /// The scene's description.
     pub desc: SceneDesc,
+    /// The compiled scene (Accurate tier).
     pub accurate: Scene,
     /// Whether the kernel's ray sets have unit directions (declared to the batch API).
     pub unit: bool,
+    /// The f32 form of the baselines.
     pub medium: MediumF,
 }
 
 impl Evaluators {
+    /// All forms of `desc` (which must be a valid scene: the report's own are).
     pub fn new(desc: SceneDesc) -> Evaluators {
         let accurate = Scene::new(desc.clone()).expect("report scenes are valid");
         Evaluators {

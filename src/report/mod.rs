@@ -56,8 +56,11 @@ impl Default for Options {
 /// Error statistics over a ray set (per ray: the worst of the three channels).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Stats {
+    /// The largest error.
     pub max: f64,
+    /// The 99th percentile.
     pub p99: f64,
+    /// The mean.
     pub mean: f64,
 }
 
@@ -80,15 +83,23 @@ impl Stats {
 /// One measured (kernel, ray set, method).
 #[derive(Clone, Debug)]
 pub struct Row {
+    /// The kernel's name ([`Kernel::name`]).
     pub kernel: String,
+    /// The ray set's name (`"typical"`, `"extreme"`).
     pub set: &'static str,
+    /// What was run.
     pub method: Method,
+    /// Rays evaluated (fewer than the set for the long ray marches).
     pub rays: usize,
-    /// Median time per ray on one thread, and with all of rayon's threads, in ns.
+    /// Median time per ray on one thread, in ns.
     pub ns_1t: f64,
+    /// Median time per ray with all of rayon's threads, in ns.
     pub ns_mt: f64,
+    /// |ΔT| against the f64 reference.
     pub t_abs: Stats,
+    /// Relative error of τ against the f64 reference.
     pub tau_rel: Stats,
+    /// Error of L_in relative to the fog colour.
     pub lin_rel: Stats,
     /// Rays with a NaN in any output (none for the crate's kernels on finite input).
     pub nan_rays: usize,
@@ -98,12 +109,16 @@ pub struct Row {
 /// speedup of the Accurate kernel at that error.
 #[derive(Clone, Debug)]
 pub struct Match {
+    /// The kernel's name.
     pub kernel: String,
+    /// The ray set's name.
     pub set: &'static str,
+    /// The Accurate tier's max |ΔT| on this set.
     pub accurate_err: f64,
     /// Steps needed (measured, or extrapolated from the last two step counts assuming
     /// error ∝ steps^−p), None where marching does not converge toward it.
     pub steps: Option<f64>,
+    /// Whether `steps` is extrapolated rather than measured.
     pub extrapolated: bool,
     /// time(march at `steps`) / time(accurate x8), one thread.
     pub speedup: Option<f64>,
@@ -111,19 +126,29 @@ pub struct Match {
 
 /// Everything the report measured.
 pub struct Report {
+    /// The SIMD level compiled in ([`crate::simd_level`]).
     pub simd: &'static str,
+    /// rayon's thread count.
     pub threads: usize,
+    /// One per (kernel, ray set, method).
     pub rows: Vec<Row>,
+    /// One per (kernel, ray set) where ray marching ran.
     pub matches: Vec<Match>,
+    /// The stability sweeps.
     pub stability: stability::Stability,
+    /// The files written.
     pub files: Vec<PathBuf>,
+    /// The report's own run time.
     pub elapsed: Duration,
 }
 
 /// A kernel of the report: a scene and its ray sets.
 pub struct Kernel {
+    /// Its name in the tables and files.
     pub name: String,
+    /// The scene, in the forms the methods need.
     pub eval: Evaluators,
+    /// The named ray sets.
     pub sets: Vec<(&'static str, RaySet)>,
     /// For the framebuffer pass: one frame per set (same order); the crate's 8-lane
     /// methods are then timed through `Scene::fog_pass`, per pixel.
@@ -133,9 +158,13 @@ pub struct Kernel {
 /// A frame for the framebuffer pass: a camera and a linear-view depth buffer, with the
 /// pixel rays (as `Camera::pixel_ray` makes them) in the kernel's ray set.
 pub struct Frame {
+    /// The camera.
     pub camera: crate::pass::Camera,
+    /// The frame's width in pixels.
     pub width: usize,
+    /// The frame's height in pixels.
     pub height: usize,
+    /// Linear view depth per pixel, row by row.
     pub depth: Vec<f32>,
 }
 

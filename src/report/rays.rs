@@ -3,16 +3,22 @@
 
 /// A batch of rays, structure of arrays (the crate's batch layout).
 pub struct RaySet {
+    /// Origins, x, y, z.
     pub o: [Vec<f32>; 3],
+    /// Directions, x, y, z.
     pub d: [Vec<f32>; 3],
+    /// Segment ends.
     pub t: Vec<f32>,
 }
 
 /// Borrowed slices of a [`RaySet`] (one chunk of it).
 #[derive(Clone, Copy)]
 pub struct RaysRef<'a> {
+    /// Origins, x, y, z.
     pub o: [&'a [f32]; 3],
+    /// Directions, x, y, z.
     pub d: [&'a [f32]; 3],
+    /// Segment ends.
     pub t: &'a [f32],
 }
 
@@ -25,14 +31,17 @@ impl RaySet {
         }
     }
 
+    /// Number of rays.
     pub fn len(&self) -> usize {
         self.t.len()
     }
 
+    /// Whether there are none.
     pub fn is_empty(&self) -> bool {
         self.t.is_empty()
     }
 
+    /// The whole set, borrowed.
     pub fn view(&self) -> RaysRef<'_> {
         RaysRef {
             o: [&self.o[0], &self.o[1], &self.o[2]],
@@ -51,14 +60,17 @@ impl RaySet {
 }
 
 impl<'a> RaysRef<'a> {
+    /// Number of rays.
     pub fn len(&self) -> usize {
         self.t.len()
     }
 
+    /// Whether there are none.
     pub fn is_empty(&self) -> bool {
         self.t.is_empty()
     }
 
+    /// The rays before `mid` and from `mid` (panics if `mid > len`, as `slice::split_at`).
     pub fn split_at(&self, mid: usize) -> (RaysRef<'a>, RaysRef<'a>) {
         let s = |x: &'a [f32]| x.split_at(mid);
         let (o0, o1, o2) = (s(self.o[0]), s(self.o[1]), s(self.o[2]));
@@ -78,6 +90,7 @@ impl<'a> RaysRef<'a> {
         )
     }
 
+    /// Ray `i` as (origin, direction, t).
     pub fn get(&self, i: usize) -> ([f32; 3], [f32; 3], f32) {
         (
             [self.o[0][i], self.o[1][i], self.o[2][i]],

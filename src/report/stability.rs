@@ -17,6 +17,8 @@ use crate::reference as rf;
 use crate::{Component, HeightFogLayer, Outputs, Phase, Rays, Scene, SceneDesc};
 use glam::{DVec3, Vec3};
 
+/// The optical-depth forms compared: this crate's, seed 000's two branches, seed 003's
+/// transformed form, Unreal's Taylor switch (|b·Δz| ≤ 0.01) and HDRP's clamped direction.
 pub const FORMS: [&str; 5] = [
     "stable",
     "seed000",
@@ -29,16 +31,22 @@ pub const FORMS: [&str; 5] = [
 /// stored as +∞).
 #[derive(Clone, Debug)]
 pub struct Sweep {
+    /// The sweep's name.
     pub name: &'static str,
+    /// What varies, for the chart's axis.
     pub x_label: &'static str,
     /// The parameters held fixed, for the chart's caption.
     pub setup: String,
+    /// The values swept.
     pub x: Vec<f64>,
+    /// Per value, the relative error of τ of each of [`FORMS`].
     pub err: Vec<[f64; 5]>,
 }
 
+/// The stability sweeps (over d_up and over the camera height).
 #[derive(Clone, Debug)]
 pub struct Stability {
+    /// One per sweep.
     pub sweeps: Vec<Sweep>,
 }
 
@@ -202,6 +210,7 @@ impl Stability {
         s
     }
 
+    /// The sweeps as CSV: `sweep,x` and one column per form.
     pub fn to_csv(&self) -> String {
         let mut s = String::from("sweep,x");
         for f in FORMS {
@@ -220,6 +229,7 @@ impl Stability {
         s
     }
 
+    /// The sweeps as JSON (non-finite errors as `null`).
     pub fn to_json(&self) -> serde_json::Value {
         let num = |x: f64| {
             if x.is_finite() {

@@ -102,27 +102,45 @@ impl Profile {
 )]
 pub enum Shape {
     /// A sphere: `|x − center| ≤ radius`.
-    Sphere { center: Vec3, radius: f32 },
+    Sphere {
+        /// The centre, world units.
+        center: Vec3,
+        /// The radius, in [1e-12, 1e12].
+        radius: f32,
+    },
     /// An ellipsoid with semi-axes `radii` along the axes of `rotation` (a quaternion
     /// `[x, y, z, w]`, normalized by the library; default identity).
     Ellipsoid {
+        /// The centre, world units.
         center: Vec3,
+        /// The semi-axes, each in [1e-12, 1e12].
         radii: Vec3,
+        /// The orientation of the semi-axes.
         #[cfg_attr(feature = "serde", serde(default = "identity"))]
         rotation: Quat,
     },
     /// Any invertible affine image of the unit ball: `x = center + M·p`, |p| ≤ 1, with
     /// `matrix` the three columns of M (the images of the unit axes).
-    Affine { center: Vec3, matrix: [Vec3; 3] },
+    Affine {
+        /// The centre, world units.
+        center: Vec3,
+        /// The columns of M (invertible).
+        matrix: [Vec3; 3],
+    },
     /// An oriented box: `|p_i| ≤ 1` for `x = center + R · (half_extents ⊙ p)`. Constant
     /// density, optionally faded toward the faces: the density is
     /// `Π_i clamp((1 − |p_i|) / edge_fade, 0, 1)`, a linear ramp over the outer
     /// `edge_fade` fraction of each half extent (0 = hard edges, the default; 1 = a tent).
     Box {
+        /// The centre, world units.
         center: Vec3,
+        /// Half the box's size along each of its axes, each in [1e-12, 1e12].
         half_extents: Vec3,
+        /// The orientation of the box's axes.
         #[cfg_attr(feature = "serde", serde(default = "identity"))]
         rotation: Quat,
+        /// The fraction of each half extent over which the density fades to 0 at the
+        /// faces, in [0, 1].
         #[cfg_attr(feature = "serde", serde(default))]
         edge_fade: f32,
     },
@@ -143,6 +161,7 @@ fn zero3() -> Vec3 {
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct Volume {
+    /// Where the volume is.
     pub shape: Shape,
     /// Density profile (default constant). Boxes take only `constant` (see `edge_fade`).
     #[cfg_attr(feature = "serde", serde(default))]
