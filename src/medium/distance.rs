@@ -38,9 +38,9 @@ pub enum Falloff {
     /// +∞ beyond `end`, so combined with other media everything beyond `end` is fully
     /// fogged and takes this fog's colour.
     Linear {
-        /// Where the fog begins, a distance along the ray (≥ 0).
+        /// Where the fog begins: a distance from the camera (the ray's start), ≥ 0.
         start: f32,
-        /// Where it becomes opaque (> `start`).
+        /// Where it becomes opaque, a distance from the camera (> `start`).
         end: f32,
     },
     /// Optical depth `density · distance` (homogeneous fog; density ≥ 0).
@@ -50,7 +50,7 @@ pub enum Falloff {
     },
     /// Optical depth `(density · distance)²` (fog that thickens with distance).
     ExponentialSquared {
-        /// Its square root per unit distance (≥ 0).
+        /// k in the optical depth (k · distance)², per unit distance (≥ 0).
         density: f32,
     },
     /// Separate extinction and in-scattering (RGB, per unit distance): T = e^(−extinction ·
