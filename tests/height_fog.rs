@@ -978,14 +978,19 @@ fn one_odd_ray_in_tame_packets() {
         ("zero", 0.0),
     ];
     type Odd = (&'static str, fn(&mut Ray));
-    let odds: [Odd; 7] = [
+    // d_y = ±inf and t = −inf: AVX-512's getexp gives them the exponent +inf, which
+    // `vscalefps` turned, with the guard's NaN, into τ = 0 or +inf (x86-64-v4 build).
+    let odds: [Odd; 10] = [
         ("dx = inf", |r| r.1.x = f32::INFINITY),
         ("dz = -inf", |r| r.1.z = f32::NEG_INFINITY),
         ("dx = NaN", |r| r.1.x = f32::NAN),
         ("dy = inf", |r| r.1.y = f32::INFINITY),
+        ("dy = -inf", |r| r.1.y = f32::NEG_INFINITY),
         ("oy = NaN", |r| r.0.y = f32::NAN),
         ("t = NaN", |r| r.2 = f32::NAN),
         ("t = -1", |r| r.2 = -1.0),
+        ("t = -inf", |r| r.2 = f32::NEG_INFINITY),
+        ("oy = -inf", |r| r.0.y = f32::NEG_INFINITY),
     ];
     for (kind, t) in kinds {
         let base: Vec<Ray> = (0..n)

@@ -101,9 +101,10 @@ pub trait Lane:
     fn frexp(self) -> (Self, Self) {
         super::frexp::frexp_bits(self)
     }
-    /// [`Lane::frexp`] for callers that replace the results of ±inf and NaN lanes
-    /// themselves (`RayGeom::new`): the same for finite lanes, anything for the others.
-    /// The AVX-512 form then skips `frexp`'s fix-ups for them (4 instructions of 9).
+    /// [`Lane::frexp`] for callers that replace the results of NaN lanes themselves
+    /// (`RayGeom::new`, whose guard makes them NaN): the same for finite and ±inf lanes
+    /// (±inf: (±1, 128)), any mantissa for NaN lanes. The AVX-512 form then skips
+    /// `frexp`'s fix-up of the NaN mantissa.
     #[inline(always)]
     fn frexp_finite(self) -> (Self, Self) {
         self.frexp()
@@ -451,9 +452,14 @@ mod avx512 {
                 use super::*;
                 type F = $F;
 
-                /// `frexp` for finite lanes only: getexp gives −inf for ±0, getmant ±1,
-                /// so zero is mended to the generic form's (+0, −151); ±inf and NaN
-                /// lanes keep getexp's and getmant's values, which the caller replaces.
+                /// `frexp` but for the mantissa of NaN lanes: getexp gives −inf for ±0,
+                /// getmant ±1, so zero is mended to the generic form's (+0, −151). For
+                /// ±inf getmant gives ±1 and getexp +inf, which `fast_min` (`minps`)
+                /// brings to the generic form's 128, as it does NaN's exponent (it
+                /// returns its second operand for a NaN first one). The exponent must
+                /// not stay +inf: a caller's NaN guard (`RayGeom::new`) is lost in
+                /// `vscalefps`, which gives +0 for NaN · 2^-inf and +inf for NaN · 2^+inf
+                /// (an up component d_up = +inf gave τ = 0 in the x86-64-v4 build).
                 #[inline(always)]
                 pub(crate) fn frexp_finite(x: F) -> (F, F) {
                     let a: $R = x.into();
@@ -466,19 +472,17 @@ mod avx512 {
                     };
                     let (e, m): (F, F) = (e.into(), m.into());
                     let zero = x.simd_eq(F::splat(0.0));
-                    (zero.select(F::splat(0.0), m), zero.select(F::splat(-151.0), e))
+                    let e = zero.select(F::splat(-151.0), e).fast_min(F::splat(128.0));
+                    (zero.select(F::splat(0.0), m), e)
                 }
 
-                /// `frexp`: [`frexp_finite`] with ±inf and NaN mended to the generic
-                /// form's (±1, 128) and (the finite `with_unit_exponent` of its bits,
-                /// 128). getexp gives +inf for ±inf and NaN for NaN, and `fast_min`
-                /// (`minps`) returns its second operand, 128, for both; getmant gives ±1
-                /// for ±inf.
+                /// `frexp`: [`frexp_finite`] with the mantissa of NaN mended to the
+                /// generic form's (the finite `with_unit_exponent` of its bits).
                 #[inline(always)]
                 pub(crate) fn frexp(x: F) -> (F, F) {
                     let (m, e) = frexp_finite(x);
                     let m = x.is_nan().select(super::super::Lane::with_unit_exponent(x), m);
-                    (m, e.fast_min(F::splat(128.0)))
+                    (m, e)
                 }
 
                 /// `x · 2^e`, rounded once, saturating (`ldexp`).

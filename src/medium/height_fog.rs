@@ -81,7 +81,9 @@ impl<L: Lane> RayGeom<L> {
     #[inline(always)]
     pub(crate) fn new(y: L, y_s: L, u: L, u_shift: L, t: L, norm: (L, L)) -> RayGeom<L> {
         // `frexp_finite`: the guard below makes every output of a ray with a non-finite u
-        // or t NaN, and t = +∞ gets its own exponent.
+        // or t NaN, and t = +∞ gets its own exponent. Every exponent stays finite, so
+        // that the guard's NaN survives `ldexp` (`vscalefps` in AVX-512 builds gives a
+        // number for NaN · 2^±inf).
         let (u_m, u_e) = u.frexp_finite();
         let u_e = u_e + u_shift;
         let u_e = L::select(u.eq(L::splat(0.0)), L::splat(U_ZERO_EXPONENT), u_e);
