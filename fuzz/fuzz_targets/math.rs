@@ -13,13 +13,16 @@
 //! - `frexp`: exact (m · 2^e == x), |m| in [1, 2); and `ldexp(frexp(x)) == x`;
 //! - `ldexp`: on its precondition (|m| in [2^-62, 2^39] or 0, integer-valued e, any size)
 //!   the correctly rounded m · 2^e, saturation and sign of zero included; outside it, no
-//!   panic and x8 == scalar.
+//!   panic, and x8 == scalar where `f32x8` has no native scaling (in an AVX-512 build it
+//!   scales with `vscalefps`, `Lane::NATIVE_SCALE`, which floors a fractional exponent
+//!   and gives NaN for a NaN one, where the generic form rounds and clamps: the two agree
+//!   on the precondition only, which is all the kernels use).
 //!
 //! `RUSTC_BOOTSTRAP=1 cargo fuzz run math -- -max_total_time=60`
 
 #![no_main]
 
-use analytic_fog::math;
+use analytic_fog::math::{self, Lane};
 use libfuzzer_sys::fuzz_target;
 use wide::f32x8;
 
@@ -232,14 +235,14 @@ fuzz_target!(|data: &[u8]| {
         for l in 0..8 {
             let (m, e) = (mm[l], raw[l]);
             let y = math::ldexp(m, e);
-            assert!(
-                same(y, y8[l]),
-                "ldexp({m:e}, {e:e}): x8 {:e}, scalar {y:e}",
-                y8[l]
-            );
             let pre = (m == 0.0 || (2f32.powi(-62)..=2f32.powi(39)).contains(&m.abs()))
                 && e.is_finite()
                 && e == e.round();
+            assert!(
+                same(y, y8[l]) || (<f32x8 as Lane>::NATIVE_SCALE && !pre),
+                "ldexp({m:e}, {e:e}): x8 {:e}, scalar {y:e}",
+                y8[l]
+            );
             if pre {
                 let exact = if e.abs() <= 1000.0 {
                     m as f64 * 2f64.powi(e as i32)
