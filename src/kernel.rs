@@ -20,6 +20,30 @@ use crate::ray::{Outputs, Rays};
 use crate::scene::{LayerPlan, Scene, UpAxis};
 use wide::f32x8;
 
+/// `[e, e, e]` with `$ch` bound to the channel 0, 1, 2: a per-channel array without a
+/// closure. The kernels' hot loops use it instead of `[0, 1, 2].map(|ch| ..)`: a closure
+/// is a function of its own, compiled without the `#[target_feature]` of the AVX-512
+/// entry points (`zmm`), and LLVM left `array::map`'s calls to such closures out of line
+/// there, a call per operation.
+macro_rules! rgb {
+    ($ch:ident => $e:expr) => {
+        [
+            {
+                let $ch = 0usize;
+                $e
+            },
+            {
+                let $ch = 1usize;
+                $e
+            },
+            {
+                let $ch = 2usize;
+                $e
+            },
+        ]
+    };
+}
+
 /// One packet of rays. Components a kernel does not need are left at zero and never read.
 #[derive(Clone, Copy)]
 pub(crate) struct PacketIn<L> {
@@ -348,9 +372,9 @@ pub(crate) fn single_tau<L: Lane, const KIND: u8>(single: &Single, (gm, ge): (L,
         // subnormal range) by s2.
         let (s1, s2) = pow2_pair(ge + L::splat(e));
         let g1 = gm * s1;
-        [0, 1, 2].map(|ch| g1 * L::splat(m[ch]) * s2)
+        rgb!(ch => g1 * L::splat(m[ch]) * s2)
     } else {
-        [0, 1, 2].map(|ch| {
+        rgb!(ch => {
             let s = layer.sigma[ch];
             ldexp(gm * L::splat(s.m), ge + L::splat(s.e))
         })
@@ -371,7 +395,7 @@ pub(crate) fn single_trans<L: Lane, const FAST: bool>(tau: L) -> L {
 /// phase terms along `dir`) times 1 − T.
 #[inline(always)]
 pub(crate) fn single_colour<L: Lane>(single: &Single, dir: &[L; 3], trans: &[L; 3]) -> [L; 3] {
-    let mut c = single.layer.colour_const.map(L::splat);
+    let mut c = rgb!(ch => L::splat(single.layer.colour_const[ch]));
     for (phase, k) in &single.lit[..single.n_lit] {
         let p = phase.eval(*dir);
         for ch in 0..3 {
@@ -389,7 +413,7 @@ pub(crate) fn single_colour_one<L: Lane, const KIND: u8>(
     dir: &[L; 3],
     trans: &[L; 3],
 ) -> [L; 3] {
-    let mut c = one.colour_const.map(L::splat);
+    let mut c = rgb!(ch => L::splat(one.colour_const[ch]));
     let p = one.phase.eval_kind::<L, KIND>(*dir);
     for ch in 0..3 {
         c[ch] = p.mul_add(L::splat(one.k[ch]), c[ch]);
@@ -423,7 +447,7 @@ impl OneLit {
 #[inline(always)]
 fn single_insc<L: Lane>(c: [L; 3], trans: &[L; 3]) -> [L; 3] {
     let one = L::splat(1.0);
-    [0, 1, 2].map(|ch| clamp_colour(c[ch]) * (one - trans[ch]))
+    rgb!(ch => clamp_colour(c[ch]) * (one - trans[ch]))
 }
 
 /// Several layers and/or fog volumes. Not inlined: one copy per lane type and direction
@@ -837,14 +861,16 @@ fn run<
 ) {
     let n = rays.len();
     let (ro, rd) = reads::<AXIS, UNIT>(scene, WANT_L);
-    let full = n - n % L::LANES;
+    // The choice between the single-layer kernel (inlined: no call, no spills) and the
+    // general one (out of line) is made once per batch, not per packet.
+    let single = Single::of(scene);
+    // 16 AVX-512 lanes chosen at run time where the build has 8 (see `zmm`).
+    let zmm = single.is_some() && L::LANES == 8 && !scene.no_avx512_dispatch && zmm::detected();
+    let full = n - n % if zmm { 16 } else { L::LANES };
     // Slices cut to `full` up front, so the loop's indexing needs no bounds checks.
     let (o0, o1, o2) = (&rays.o[0][..full], &rays.o[1][..full], &rays.o[2][..full]);
     let (d0, d1, d2) = (&rays.d[0][..full], &rays.d[1][..full], &rays.d[2][..full]);
     let t = &rays.t[..full];
-    // The choice between the single-layer kernel (inlined: no call, no spills) and the
-    // general one (out of line) is made once per batch, not per packet.
-    let single = Single::of(scene);
     let (mut o_tau, mut o_tr, mut o_li) = (
         cut_rgb(&mut out.tau, full),
         cut_rgb(&mut out.transmittance, full),
@@ -879,7 +905,11 @@ fn run<
     if let Some(single) = &single {
         let rays = [o0, o1, o2, d0, d1, d2, t];
         let outs = [&mut o_tau, &mut o_tr, &mut o_li];
-        run_single::<L, AXIS, UNIT, WANT_T, WANT_L, FAST>(single, rays, outs);
+        if zmm {
+            zmm::run_single::<AXIS, UNIT, WANT_T, WANT_L, FAST>(single, rays, outs);
+        } else {
+            run_single::<L, AXIS, UNIT, WANT_T, WANT_L, FAST>(single, rays, outs);
+        }
     } else {
         packets!(|p: PacketIn<L>| eval_general::<L, AXIS, UNIT>(
             scene,
@@ -1004,16 +1034,15 @@ fn run_single<
                 for ((a, dir), ((((o0, o1), o2), ((d0, d1), d2)), t)) in
                     slots.zip(os.zip(ds).zip(c(6)))
                 {
-                    let at = |j: usize, s: &[f32]| {
-                        if read::<AXIS>(j, $all_d) {
-                            L::load(s)
-                        } else {
-                            zero
-                        }
-                    };
+                    // (No closure: see `rgb!`.)
+                    let ins = [o0, o1, o2, d0, d1, d2];
+                    let at = rgb!(c => [
+                        if read::<AXIS>(c, $all_d) { L::load(ins[c]) } else { zero },
+                        if read::<AXIS>(c + 3, $all_d) { L::load(ins[c + 3]) } else { zero },
+                    ]);
                     let p = PacketIn {
-                        o: [at(0, o0), at(1, o1), at(2, o2)],
-                        d: [at(3, d0), at(4, d1), at(5, d2)],
+                        o: [at[0][0], at[1][0], at[2][0]],
+                        d: [at[0][1], at[1][1], at[2][1]],
                         t: L::load(t),
                     };
                     let (args_k, dir_k, tame_k) =
@@ -1083,11 +1112,10 @@ fn run_single<
                 _ => tau_loop!(2),
             }
         }
-        // The T loop of a shared block: `$f` gives the three channels' T from g, with
-        // one load of g per packet.
+        // The T loop of a shared block: `$f` gives the three channels' T from `$g`, with
+        // one load of g per packet (an expression, not a closure: see `rgb!`).
         macro_rules! shared_t_loop {
-            ($f:expr) => {{
-                let f = $f;
+            ($g:ident => $f:expr) => {{
                 let w = m * L::LANES;
                 let pairs = gs[..m].iter().zip(trans[..m].iter_mut());
                 match o_tr.as_mut() {
@@ -1096,8 +1124,8 @@ fn run_single<
                             .chunks_exact_mut(L::LANES)
                             .zip(d1[i..i + w].chunks_exact_mut(L::LANES))
                             .zip(d2[i..i + w].chunks_exact_mut(L::LANES));
-                        for ((&g, tr_k), ((a, b), c)) in pairs.zip(chunks) {
-                            let tr: [L; 3] = f(g);
+                        for ((&$g, tr_k), ((a, b), c)) in pairs.zip(chunks) {
+                            let tr: [L; 3] = $f;
                             tr[0].store(a);
                             tr[1].store(b);
                             tr[2].store(c);
@@ -1107,8 +1135,8 @@ fn run_single<
                         }
                     }
                     None => {
-                        for (&g, tr_k) in pairs {
-                            *tr_k = f(g);
+                        for (&$g, tr_k) in pairs {
+                            *tr_k = $f;
                         }
                     }
                 }
@@ -1117,11 +1145,11 @@ fn run_single<
         if shared_block && single.grey {
             // One exponential for the three channels.
             let k = L::splat(single.layer.sigma[0].m);
-            shared_t_loop!(|g: L| [single_trans::<L, FAST>(g * k); 3]);
+            shared_t_loop!(g => [single_trans::<L, FAST>(g * k); 3]);
         } else if shared_block {
             // The three channels in one loop.
-            let mc = single.shared.1.map(L::splat);
-            shared_t_loop!(|g: L| mc.map(|k| single_trans::<L, FAST>(g * k)));
+            let mc = rgb!(ch => L::splat(single.shared.1[ch]));
+            shared_t_loop!(g => rgb!(ch => single_trans::<L, FAST>(g * mc[ch])));
         } else if WANT_T || WANT_L {
             // One channel at a time: the exponential's constants stay in registers. Each
             // value goes straight to the caller's array (the block's part of it, in
@@ -1259,6 +1287,98 @@ fn shared_depth<L: Lane>(single: &Single, depth: &[(L, L)], gs: &mut [L; BLOCK])
         *g = gm * L::pow2i(e.clamp(L::splat(-64.0), L::splat(64.0)));
     }
     !L::any(!sum.eq(sum))
+}
+
+/// See [`crate::avx512_dispatch`].
+pub(crate) fn avx512_dispatch() -> bool {
+    zmm::detected()
+}
+
+/// Run-time dispatch to 16 AVX-512 lanes ([`crate::math::zmm::Zmm`]) in builds that do not
+/// enable AVX-512 themselves, where the CPU has it.
+#[cfg(all(
+    target_arch = "x86_64",
+    target_feature = "avx2",
+    target_feature = "fma",
+    not(target_feature = "avx512f")
+))]
+#[allow(unsafe_code)]
+mod zmm {
+    use super::Single;
+    use crate::math::zmm::Zmm;
+
+    /// Whether this CPU has the AVX-512 subsets [`Zmm`] uses (F, VL, DQ, BW, CD).
+    #[inline]
+    pub(crate) fn detected() -> bool {
+        std::is_x86_feature_detected!("avx512f")
+            && std::is_x86_feature_detected!("avx512vl")
+            && std::is_x86_feature_detected!("avx512dq")
+            && std::is_x86_feature_detected!("avx512bw")
+            && std::is_x86_feature_detected!("avx512cd")
+    }
+
+    /// [`run_single`] with [`Zmm`] lanes, compiled with AVX-512 enabled. Call only where
+    /// [`detected`] is true (and lengths multiples of 16).
+    #[inline(always)]
+    pub(crate) fn run_single<
+        const AXIS: usize,
+        const UNIT: bool,
+        const WANT_T: bool,
+        const WANT_L: bool,
+        const FAST: bool,
+    >(
+        single: &Single,
+        rays: [&[f32]; 7],
+        outs: [&mut Option<[&mut [f32]; 3]>; 3],
+    ) {
+        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
+        fn go<
+            const AXIS: usize,
+            const UNIT: bool,
+            const WANT_T: bool,
+            const WANT_L: bool,
+            const FAST: bool,
+        >(
+            single: &Single,
+            rays: [&[f32]; 7],
+            outs: [&mut Option<[&mut [f32]; 3]>; 3],
+        ) {
+            super::run_single::<Zmm, AXIS, UNIT, WANT_T, WANT_L, FAST>(single, rays, outs)
+        }
+        assert!(detected());
+        // SAFETY: the CPU has the features `go` is compiled for (asserted above).
+        unsafe { go::<AXIS, UNIT, WANT_T, WANT_L, FAST>(single, rays, outs) }
+    }
+}
+
+/// Without run-time AVX-512 dispatch (the build enables AVX-512 itself, or lacks
+/// AVX2/FMA): never taken.
+#[cfg(not(all(
+    target_arch = "x86_64",
+    target_feature = "avx2",
+    target_feature = "fma",
+    not(target_feature = "avx512f")
+)))]
+mod zmm {
+    use super::Single;
+    #[inline(always)]
+    pub(crate) fn detected() -> bool {
+        false
+    }
+    #[inline(always)]
+    pub(crate) fn run_single<
+        const AXIS: usize,
+        const UNIT: bool,
+        const WANT_T: bool,
+        const WANT_L: bool,
+        const FAST: bool,
+    >(
+        _: &Single,
+        _: [&[f32]; 7],
+        _: [&mut Option<[&mut [f32]; 3]>; 3],
+    ) {
+        unreachable!()
+    }
 }
 
 /// The lane type of the vector paths: `f32x8` (AVX2: one ymm register), or `f32x16` where

@@ -121,6 +121,16 @@ pub use scene::{
 use glam::Vec3;
 use kernel::Width;
 
+/// True where this build, compiled without AVX-512 but with AVX2 and FMA (the repository's
+/// x86-64-v3 build), runs on a CPU with AVX-512 (F, VL, DQ, BW, CD): `Scene::evaluate` and
+/// `Scene::evaluate_par` then evaluate scenes of one height fog layer 16 lanes wide in
+/// AVX-512 registers, chosen at run time, with the same bits as the 8-lane path
+/// ([`Scene::without_avx512_dispatch`] turns it off). False in an AVX-512 build, which
+/// runs 16 lanes everywhere anyway (see [`simd_level`]).
+pub fn avx512_dispatch() -> bool {
+    kernel::avx512_dispatch()
+}
+
 /// The SIMD instruction set `wide` was compiled for: `"avx512f+avx2+fma"` (the batch
 /// kernels then run 16 lanes per instruction), `"avx2+fma"`, `"avx2"`, `"avx"`, `"sse4.1"`,
 /// `"sse2"` or `"scalar"`.

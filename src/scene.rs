@@ -365,6 +365,9 @@ pub struct Scene {
     /// The pass's own kernel runs 8 lanes wide instead of 16
     /// (`Scene::with_pass_lanes_8`).
     pub(crate) pass_lanes_8: bool,
+    /// The batch kernel stays at the build's own width even where the CPU has AVX-512
+    /// (`Scene::without_avx512_dispatch`).
+    pub(crate) no_avx512_dispatch: bool,
 }
 
 fn check_finite(field: impl FnOnce() -> String, v: f32) -> Result<(), SceneError> {
@@ -651,6 +654,7 @@ impl Scene {
             ordered: desc.composition == Composition::Ordered && !volumes_empty,
             exact_pass: false,
             pass_lanes_8: false,
+            no_avx512_dispatch: false,
             desc,
         })
     }
@@ -694,6 +698,16 @@ impl Scene {
     #[doc(hidden)]
     pub fn with_pass_lanes_8(mut self) -> Scene {
         self.pass_lanes_8 = true;
+        self
+    }
+
+    /// This scene with the batch kernel at the build's own width (8 lanes in an AVX2 build)
+    /// even where [`crate::avx512_dispatch`] is true: without this, `evaluate` and
+    /// `evaluate_par` run a scene of one height fog layer 16 lanes wide on such a CPU. The
+    /// results are the same bits either way; this is for tests and benchmarks, and for
+    /// CPUs whose clock drops under AVX-512 load.
+    pub fn without_avx512_dispatch(mut self) -> Scene {
+        self.no_avx512_dispatch = true;
         self
     }
 

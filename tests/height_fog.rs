@@ -286,6 +286,9 @@ fn case(
 #[derive(Clone, Copy, Debug)]
 enum Path {
     X8,
+    /// `Scene::evaluate` without the run-time AVX-512 dispatch (the 8-lane path on a CPU
+    /// where `analytic_fog::avx512_dispatch()` is true; the same as `X8` elsewhere).
+    X8Narrow,
     Scalar,
     Par,
 }
@@ -317,6 +320,10 @@ fn eval(scene: &Scene, rays: &[Ray], unit: bool, path: Path, want: [bool; 3]) ->
         };
         match path {
             Path::X8 => scene.evaluate(&batch, outputs),
+            Path::X8Narrow => scene
+                .clone()
+                .without_avx512_dispatch()
+                .evaluate(&batch, outputs),
             Path::Scalar => scene.evaluate_scalar(&batch, outputs),
             Path::Par => scene.evaluate_par(&batch, outputs),
         }
@@ -405,8 +412,10 @@ proptest! {
         let x8 = eval(&sc, &rays, unit, Path::X8, all);
         let scalar = eval(&sc, &rays, unit, Path::Scalar, all);
         let par = eval(&sc, &rays, unit, Path::Par, all);
+        let narrow = eval(&sc, &rays, unit, Path::X8Narrow, all);
         assert_same_bits(&x8, &scalar, all, "x8 vs scalar")?;
         assert_same_bits(&x8, &par, all, "x8 vs par")?;
+        assert_same_bits(&x8, &narrow, all, "x8 vs x8 without AVX-512 dispatch")?;
         // A subset of the outputs gives the same bits for what it computes.
         let sub8 = eval(&sc, &rays, unit, Path::X8, want);
         let sub1 = eval(&sc, &rays, unit, Path::Scalar, want);
@@ -1023,13 +1032,17 @@ fn one_odd_ray_in_tame_packets() {
                 let all = [true; 3];
                 let x8 = eval(sc, &rays, false, Path::X8, all);
                 let scalar = eval(sc, &rays, false, Path::Scalar, all);
+                let narrow = eval(sc, &rays, false, Path::X8Narrow, all);
                 for i in 0..n {
                     for k in 0..9 {
                         let (a, b) = (x8[k / 3][k % 3][i], scalar[k / 3][k % 3][i]);
+                        let c = narrow[k / 3][k % 3][i];
                         assert!(
-                            a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                            [a, c]
+                                .iter()
+                                .all(|v| v.to_bits() == b.to_bits() || (v.is_nan() && b.is_nan())),
                             "{medium}, {kind}, {odd} at {p}: ray {i}, output {k}: x8 {a:e}, \
-                             scalar {b:e}"
+                             8 lanes {c:e}, scalar {b:e}"
                         );
                         if i == p {
                             assert!(
@@ -1074,8 +1087,10 @@ fn extreme_families_x8_equals_scalar_and_reference() {
         for unit in [true, false] {
             let x8 = eval(&sc, &rays, unit, Path::X8, all);
             let scalar = eval(&sc, &rays, unit, Path::Scalar, all);
+            let narrow = eval(&sc, &rays, unit, Path::X8Narrow, all);
             let what = format!("{} (unit {unit})", family.0);
             assert_same_bits(&x8, &scalar, all, &what).unwrap();
+            assert_same_bits(&narrow, &scalar, all, &format!("{what}, 8 lanes")).unwrap();
             check_batch(&desc, &rays, &x8).unwrap();
         }
     }

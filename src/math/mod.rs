@@ -19,6 +19,13 @@ mod lane;
 mod ldexp;
 mod log;
 mod log1p;
+#[cfg(all(
+    target_arch = "x86_64",
+    target_feature = "avx2",
+    target_feature = "fma",
+    not(target_feature = "avx512f")
+))]
+pub(crate) mod zmm;
 
 pub use asinh::asinh;
 pub use erf::{erf, erfc};

@@ -417,8 +417,15 @@ pub(crate) fn depth_args_tame_wide<L: Lane>(
     let inf = t.eq(L::splat(f32::INFINITY)) & fin;
     // Sky lanes with |b·u| ≥ 2^-12 first: a packet of them and plain lanes (a renderer's
     // sky) stops here.
-    // The sky lanes with |b·u| in [lo, hi), scaled by SKY_SHIFT[k].
-    let sky_lanes = |args: DepthArgs<L>, lo: f32, hi: f32, k: usize| {
+    // The sky lanes with |b·u| in [lo, hi), scaled by SKY_SHIFT[k]. (A function, not a
+    // closure: see `kernel`'s `rgb!`.)
+    #[inline(always)]
+    fn sky_lanes<L: Lane>(
+        (args, inf, abu, norm): (DepthArgs<L>, L::Mask, L, (L, L)),
+        lo: f32,
+        hi: f32,
+        k: usize,
+    ) -> (DepthArgs<L>, L::Mask) {
         let sky = inf & abu.ge(L::splat(lo)) & abu.lt(L::splat(hi));
         let args = DepthArgs {
             dc: L::select(sky, abu * L::splat(SKY_SHIFT[k]), args.dc),
@@ -427,14 +434,14 @@ pub(crate) fn depth_args_tame_wide<L: Lane>(
             ..args
         };
         (args, sky)
-    };
-    let (args, sky) = sky_lanes(args, TAME_SKY_MID, TAME_SKY_MAX, 0);
+    }
+    let (args, sky) = sky_lanes((args, inf, abu, norm), TAME_SKY_MID, TAME_SKY_MAX, 0);
     let ok = ok | sky;
     if !L::any(!ok) {
         return (args, ok);
     }
     // Sky lanes with |b·u| in [2^-38, 2^-12) (nearly level rays).
-    let (args, sky) = sky_lanes(args, TAME_SKY_MIN, TAME_SKY_MID, 1);
+    let (args, sky) = sky_lanes((args, inf, abu, norm), TAME_SKY_MIN, TAME_SKY_MID, 1);
     let ok = ok | sky;
     let d = bu * t;
     let ad = d.abs();
