@@ -132,6 +132,7 @@ fn in_cache(c: &mut Criterion) {
     let n = 65536;
     for (full, group) in [(false, "transmittance_rgb"), (true, "radiance")] {
         let sc = scene(full);
+        let narrow = sc.clone().without_avx512_dispatch();
         let mut g = c.benchmark_group(group);
         g.throughput(Throughput::Elements(n as u64));
         g.warm_up_time(Duration::from_millis(500));
@@ -144,6 +145,11 @@ fn in_cache(c: &mut Criterion) {
             let mut o = Out::new(n);
             g.bench_function(BenchmarkId::new("x8_unit", set), |b| {
                 b.iter(|| sc.evaluate(&rays(&r, true), o.outputs(full)).unwrap())
+            });
+            // The build's own 8 lanes where `x8_unit` dispatches to 16 AVX-512 lanes at
+            // run time (`analytic_fog::avx512_dispatch()`; the same kernel elsewhere).
+            g.bench_function(BenchmarkId::new("x8_unit_lanes8", set), |b| {
+                b.iter(|| narrow.evaluate(&rays(&r, true), o.outputs(full)).unwrap())
             });
             g.bench_function(BenchmarkId::new("x8_unit_fast", set), |b| {
                 b.iter(|| {
