@@ -20,30 +20,6 @@ use crate::ray::{Outputs, Rays};
 use crate::scene::{LayerPlan, Scene, UpAxis};
 use wide::f32x8;
 
-/// `[e, e, e]` with `$ch` bound to the channel 0, 1, 2: a per-channel array without a
-/// closure. The kernels' hot loops use it instead of `[0, 1, 2].map(|ch| ..)`: a closure
-/// is a function of its own, compiled without the `#[target_feature]` of the AVX-512
-/// entry points (`zmm`), and LLVM left `array::map`'s calls to such closures out of line
-/// there, a call per operation.
-macro_rules! rgb {
-    ($ch:ident => $e:expr) => {
-        [
-            {
-                let $ch = 0usize;
-                $e
-            },
-            {
-                let $ch = 1usize;
-                $e
-            },
-            {
-                let $ch = 2usize;
-                $e
-            },
-        ]
-    };
-}
-
 /// One packet of rays. Components a kernel does not need are left at zero and never read.
 #[derive(Clone, Copy)]
 pub(crate) struct PacketIn<L> {

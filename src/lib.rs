@@ -93,6 +93,30 @@
 // the digits of their derivation.
 #![allow(clippy::needless_range_loop, clippy::excessive_precision)]
 
+/// `[e, e, e]` with `$ch` bound to the channel 0, 1, 2: a per-channel array without a
+/// closure. The kernels' hot loops use it instead of `[0, 1, 2].map(|ch| ..)`: a closure
+/// is a function of its own, compiled without the `#[target_feature]` of the AVX-512
+/// entry points (`kernel::zmm`, `pass::height::zmm`), and LLVM left `array::map`'s calls
+/// to such closures out of line there, a call (and spills) per operation.
+macro_rules! rgb {
+    ($ch:ident => $e:expr) => {
+        [
+            {
+                let $ch = 0usize;
+                $e
+            },
+            {
+                let $ch = 1usize;
+                $e
+            },
+            {
+                let $ch = 2usize;
+                $e
+            },
+        ]
+    };
+}
+
 mod builder;
 mod error;
 mod kernel;

@@ -138,6 +138,9 @@ fn info_and_version() {
         let s = String::from_utf8_lossy(&o.stdout);
         assert!(s.contains(env!("CARGO_PKG_VERSION")), "{s}");
         assert!(s.contains(simd_level()), "{s}");
+        // The run-time AVX-512 dispatch is named where it happens, and only there.
+        let dispatch = analytic_fog::avx512_dispatch();
+        assert_eq!(s.contains("avx512 at run time"), dispatch, "{s}");
     }
 }
 

@@ -511,6 +511,15 @@ fn own_kernel_within_the_accuracy_bound() {
                 .with_pass_lanes_8()
                 .fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut rgb8))
                 .unwrap();
+            // And 16 lanes without the run-time AVX-512 dispatch (`wide::f32x16`, two
+            // AVX2 halves in an AVX2 build) where the default is AVX-512 chosen at run
+            // time (`analytic_fog::avx512_dispatch()`; the same path elsewhere).
+            let mut rgb16 = vec![surface; 3 * n];
+            scene
+                .clone()
+                .without_avx512_dispatch()
+                .fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut rgb16))
+                .unwrap();
             for i in 0..n {
                 for c in 0..3 {
                     let e = planes[c][i].to_bits();
@@ -520,6 +529,11 @@ fn own_kernel_within_the_accuracy_bound() {
                         rgb8[3 * i + c].to_bits(),
                         e,
                         "case {case}: 8 lanes vs build"
+                    );
+                    assert_eq!(
+                        rgb16[3 * i + c].to_bits(),
+                        e,
+                        "case {case}: without AVX-512 dispatch vs with"
                     );
                 }
             }

@@ -147,6 +147,7 @@ fn report_rows_files_and_bounds() {
             .expect("valid JSON");
     assert_eq!(json["rows"].as_array().map(|a| a.len()), Some(r.rows.len()));
     assert_eq!(json["simd"], analytic_fog::simd_level());
+    assert_eq!(json["avx512_dispatch"], analytic_fog::avx512_dispatch());
     assert!(json["stability"].as_array().is_some_and(|a| a.len() == 3));
     for f in [
         "error_vs_time_typical.svg",

@@ -100,6 +100,44 @@ impl Zmm {
     fn is_nan(self) -> ZmmMask {
         ZmmMask(unsafe { _mm512_cmp_ps_mask::<_CMP_UNORD_Q>(self.0, self.0) })
     }
+
+    /// The lanes of `a`.
+    #[inline(always)]
+    pub(crate) fn from_array(a: [f32; 16]) -> Zmm {
+        Zmm::load(&a)
+    }
+
+    /// The 8-lane estimate of 1/√x (`vrsqrtps`) on each half: the bits of
+    /// `wide::f32x8::recip_sqrt` (AVX-512's own `vrsqrt14ps` is another estimate).
+    #[inline(always)]
+    pub(crate) fn rsqrt_estimate_halves(self) -> Zmm {
+        Zmm(unsafe {
+            let lo = _mm256_rsqrt_ps(_mm512_castps512_ps256(self.0));
+            let hi = _mm256_rsqrt_ps(_mm512_extractf32x8_ps::<1>(self.0));
+            _mm512_insertf32x8::<1>(_mm512_castps256_ps512(lo), hi)
+        })
+    }
+
+    /// Lanes 8h to 8h + 7 (`h` is 0 or 1).
+    #[inline(always)]
+    pub(crate) fn half(self, h: usize) -> wide::f32x8 {
+        wide::f32x8::from(unsafe {
+            if h == 0 {
+                _mm512_castps512_ps256(self.0)
+            } else {
+                _mm512_extractf32x8_ps::<1>(self.0)
+            }
+        })
+    }
+
+    /// Lane `idx[k]` of `self` in lane `k` (`vpermps`).
+    #[inline(always)]
+    pub(crate) fn permute(self, idx: [u32; 16]) -> Zmm {
+        Zmm(unsafe {
+            let i = _mm512_loadu_si512(idx.as_ptr().cast());
+            _mm512_permutexvar_ps(i, self.0)
+        })
+    }
 }
 
 macro_rules! cmp {

@@ -161,7 +161,7 @@ fn rsqrt<W: PassLane>(x: W) -> W {
 /// every operation is the same IEEE operation per element, and the 16-lane estimate is
 /// the 8-lane instruction (`vrsqrtps`) on each half, not AVX-512's more precise
 /// `vrsqrt14ps` (wide's `f32x16::recip_sqrt` is a square root and a division there).
-pub(crate) trait PassLane: Lane<Mask = Self> {
+pub(crate) trait PassLane: Lane {
     /// The lanes' column offsets, 0, 1, …, LANES − 1.
     fn lane_x() -> Self;
     /// `vrsqrtps` on each 8 lanes.
@@ -245,6 +245,44 @@ impl PassLane for f32x16 {
     }
 }
 
+/// [`crate::math::zmm::Zmm`], 16 AVX-512 lanes chosen at run time in a build without
+/// AVX-512: the same bits as `f32x16` and `f32x8` (the estimate is `vrsqrtps` on each
+/// half, the permutations are the same lanes).
+#[cfg(all(
+    target_arch = "x86_64",
+    target_feature = "avx2",
+    target_feature = "fma",
+    not(target_feature = "avx512f")
+))]
+impl PassLane for crate::math::zmm::Zmm {
+    #[inline(always)]
+    fn lane_x() -> Self {
+        Self::from_array(core::array::from_fn(|k| k as f32))
+    }
+    #[inline(always)]
+    fn rsqrt_estimate(self) -> Self {
+        self.rsqrt_estimate_halves()
+    }
+    #[inline(always)]
+    fn part(self, h: usize) -> f32x8 {
+        self.half(h)
+    }
+    #[inline(always)]
+    fn expand3(self) -> [Self; 3] {
+        [
+            self.permute([0, 0, 0, 1, 1, 1, 2, 2, 2, 3, 3, 3, 4, 4, 4, 5]),
+            self.permute([5, 5, 6, 6, 6, 7, 7, 7, 8, 8, 8, 9, 9, 9, 10, 10]),
+            self.permute([
+                10, 11, 11, 11, 12, 12, 12, 13, 13, 13, 14, 14, 14, 15, 15, 15,
+            ]),
+        ]
+    }
+    fn interleaved3(c: [f32; 3]) -> [Self; 3] {
+        let lanes = |j: usize| Self::from_array(core::array::from_fn(|k| c[(16 * j + k) % 3]));
+        [lanes(0), lanes(1), lanes(2)]
+    }
+}
+
 /// A frame's constants for [`fog_rows`].
 #[derive(Clone, Copy)]
 pub(crate) struct HeightPass {
@@ -270,6 +308,9 @@ pub(crate) struct HeightPass {
     depth: usize,
     /// Run with 8 lanes instead of [`PassWide`]'s 16 ([`Scene::with_pass_lanes_8`]).
     x8: bool,
+    /// Run 16 AVX-512 lanes chosen at run time (`crate::math::zmm::Zmm`) instead of
+    /// [`PassWide`] (see [`crate::avx512_dispatch`]; not with `x8`).
+    zmm: bool,
     /// NDC: z = near / (depth·k + q), sky where depth·sky_s ≥ sky_at.
     ndc: [f32; 5],
     /// The frame's T_BIG: rays are clamped to this length.
@@ -405,6 +446,7 @@ impl HeightPass {
             depth,
             ndc,
             x8: scene.pass_lanes_8,
+            zmm: !scene.no_avx512_dispatch && crate::avx512_dispatch(),
             t_big,
         })
     }
@@ -437,6 +479,9 @@ pub(crate) fn fog_rows<'a, R: RowColour>(
             (true, true) => rows_with::<R, W, PH, true, true>(hp, plan, y0, rows),
         }
     }
+    if hp.zmm && !hp.x8 {
+        return zmm::fog_rows(hp, plan, y0, rows);
+    }
     match (hp.x8, hp.n_phases) {
         (false, 0) => flags::<R, PassWide, 0>(hp, plan, y0, rows),
         (false, 1) => flags::<R, PassWide, 1>(hp, plan, y0, rows),
@@ -444,6 +489,79 @@ pub(crate) fn fog_rows<'a, R: RowColour>(
         (true, 0) => flags::<R, f32x8, 0>(hp, plan, y0, rows),
         (true, 1) => flags::<R, f32x8, 1>(hp, plan, y0, rows),
         (true, _) => flags::<R, f32x8, 2>(hp, plan, y0, rows),
+    }
+}
+
+/// [`fog_rows`] with [`crate::math::zmm::Zmm`] lanes, compiled with AVX-512 enabled
+/// (everything below [`rows_with`] is inlined into it).
+#[cfg(all(
+    target_arch = "x86_64",
+    target_feature = "avx2",
+    target_feature = "fma",
+    not(target_feature = "avx512f")
+))]
+#[allow(unsafe_code)]
+mod zmm {
+    use super::{rows_with, FramePlan, HeightPass, RowColour};
+    use crate::math::zmm::Zmm;
+
+    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
+    fn rows_zmm<'a, R: RowColour, const PH: usize, const GREY: bool, const FAST: bool>(
+        hp: &HeightPass,
+        plan: &FramePlan,
+        y0: usize,
+        rows: impl Iterator<Item = (&'a [f32], R)>,
+    ) {
+        rows_with::<R, Zmm, PH, GREY, FAST>(hp, plan, y0, rows)
+    }
+
+    /// Call only where `crate::avx512_dispatch()` is true (`HeightPass::zmm`).
+    #[inline(always)]
+    pub(super) fn fog_rows<'a, R: RowColour>(
+        hp: &HeightPass,
+        plan: &FramePlan,
+        y0: usize,
+        rows: impl Iterator<Item = (&'a [f32], R)>,
+    ) {
+        assert!(crate::avx512_dispatch());
+        // SAFETY: the CPU has the features `rows_zmm` is compiled for (asserted above).
+        unsafe {
+            match (hp.n_phases.min(2), hp.grey, hp.fast) {
+                (0, false, false) => rows_zmm::<R, 0, false, false>(hp, plan, y0, rows),
+                (0, false, true) => rows_zmm::<R, 0, false, true>(hp, plan, y0, rows),
+                (0, true, false) => rows_zmm::<R, 0, true, false>(hp, plan, y0, rows),
+                (0, true, true) => rows_zmm::<R, 0, true, true>(hp, plan, y0, rows),
+                (1, false, false) => rows_zmm::<R, 1, false, false>(hp, plan, y0, rows),
+                (1, false, true) => rows_zmm::<R, 1, false, true>(hp, plan, y0, rows),
+                (1, true, false) => rows_zmm::<R, 1, true, false>(hp, plan, y0, rows),
+                (1, true, true) => rows_zmm::<R, 1, true, true>(hp, plan, y0, rows),
+                (_, false, false) => rows_zmm::<R, 2, false, false>(hp, plan, y0, rows),
+                (_, false, true) => rows_zmm::<R, 2, false, true>(hp, plan, y0, rows),
+                (_, true, false) => rows_zmm::<R, 2, true, false>(hp, plan, y0, rows),
+                (_, true, true) => rows_zmm::<R, 2, true, true>(hp, plan, y0, rows),
+            }
+        }
+    }
+}
+
+/// Never taken (see [`HeightPass::zmm`]): the build enables AVX-512 itself, or lacks
+/// AVX2/FMA.
+#[cfg(not(all(
+    target_arch = "x86_64",
+    target_feature = "avx2",
+    target_feature = "fma",
+    not(target_feature = "avx512f")
+)))]
+mod zmm {
+    use super::{FramePlan, HeightPass, RowColour};
+    #[inline(always)]
+    pub(super) fn fog_rows<'a, R: RowColour>(
+        _: &HeightPass,
+        _: &FramePlan,
+        _: usize,
+        _: impl Iterator<Item = (&'a [f32], R)>,
+    ) {
+        unreachable!()
     }
 }
 
@@ -560,14 +678,18 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     out: &mut R,
 ) {
     // T = e^(−τ_c): the Fast tier's `exp_neg_fast` of τ_c = k_c·g', or 2^(k2_c·g').
+    // (A function, not a closure: a closure is compiled without the `#[target_feature]` of
+    // the AVX-512 entry point `zmm::rows_zmm`, and may stay out of line there.)
     let kk = if FAST { hp.k } else { hp.k2 };
-    let trans = |kg: W| {
+    #[inline(always)]
+    fn trans<W: Lane, const FAST: bool>(kg: W) -> W {
         if FAST {
             exp_neg_fast(kg)
         } else {
             exp2_nonpos(kg)
         }
-    };
+    }
+    let trans = trans::<W, FAST>;
     let zero = W::splat(0.0);
     let n_lanes = W::LANES;
     let m = depth.len() / n_lanes;
@@ -673,12 +795,21 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
                     trans(W::splat(kk[2]) * g),
                 ]
             };
+            // (Written out, no closures: see `trans`.)
+            let [c0, c1, c2] = hp.colour;
             let c = match PH {
-                0 => [0, 1, 2].map(|j| clamp_colour(W::splat(hp.colour[j]))),
+                0 => [
+                    clamp_colour(W::splat(c0)),
+                    clamp_colour(W::splat(c1)),
+                    clamp_colour(W::splat(c2)),
+                ],
                 1 => {
-                    let k = hp.phases[0].k;
-                    [0, 1, 2]
-                        .map(|j| clamp_colour(p.mul_add(W::splat(k[j]), W::splat(hp.colour[j]))))
+                    let [k0, k1, k2] = hp.phases[0].k;
+                    [
+                        clamp_colour(p.mul_add(W::splat(k0), W::splat(c0))),
+                        clamp_colour(p.mul_add(W::splat(k1), W::splat(c1))),
+                        clamp_colour(p.mul_add(W::splat(k2), W::splat(c2))),
+                    ]
                 }
                 _ => *c,
             };

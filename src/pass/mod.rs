@@ -462,7 +462,7 @@ trait RowColour {
     #[inline(always)]
     fn fog(&mut self, x0: usize, n: usize, trans: [f32x8; 3], insc: [f32x8; 3]) {
         let c = self.load(x0, n);
-        let v = [0, 1, 2].map(|ch| Lane::mul_add(c[ch], trans[ch], insc[ch]));
+        let v = rgb!(ch => Lane::mul_add(c[ch], trans[ch], insc[ch]));
         self.store(x0, n, v);
     }
     /// [`RowColour::fog`] for a packet of `W::LANES` pixels (`n` of them live), in pieces
@@ -524,11 +524,11 @@ impl<const C: usize> RowColour for Interleaved<'_, C> {
                 }
             }
         }
-        v.map(f32x8::new)
+        rgb!(ch => f32x8::new(v[ch]))
     }
     #[inline(always)]
     fn store(&mut self, x0: usize, n: usize, v: [f32x8; 3]) {
-        let v = v.map(|x| x.to_array());
+        let v = rgb!(ch => v[ch].to_array());
         if n == 8 {
             let s = &mut self.0[x0 * C..(x0 + 8) * C];
             for k in 0..8 {
@@ -558,7 +558,7 @@ impl<const C: usize> RowColour for Interleaved<'_, C> {
             }
         } else {
             let c = self.load(x0, n);
-            let v = [0, 1, 2].map(|ch| Lane::mul_add(c[ch], trans[ch], insc[ch]));
+            let v = rgb!(ch => Lane::mul_add(c[ch], trans[ch], insc[ch]));
             self.store(x0, n, v);
         }
     }
@@ -590,7 +590,7 @@ impl<R: RowColour> RowColour for &mut R {
 impl RowColour for Planar<'_> {
     #[inline(always)]
     fn load(&self, x0: usize, n: usize) -> [f32x8; 3] {
-        [0, 1, 2].map(|ch| {
+        rgb!(ch => {
             if n == 8 {
                 f32x8::load(&self.0[ch][x0..x0 + 8])
             } else {

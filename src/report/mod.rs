@@ -129,6 +129,9 @@ pub struct Match {
 pub struct Report {
     /// The SIMD level compiled in ([`crate::simd_level`]).
     pub simd: &'static str,
+    /// Whether one-layer batches ran 16 AVX-512 lanes chosen at run time
+    /// ([`crate::avx512_dispatch`]).
+    pub avx512_dispatch: bool,
     /// rayon's thread count.
     pub threads: usize,
     /// One per (kernel, ray set, method).
@@ -600,6 +603,7 @@ pub fn run(opts: &Options, progress: &mut dyn FnMut(&str)) -> Result<Report, Str
     let stab = stability::run();
     let mut report = Report {
         simd: crate::simd_level(),
+        avx512_dispatch: crate::avx512_dispatch(),
         threads,
         rows,
         matches,
@@ -676,8 +680,10 @@ pub fn table(r: &Report) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "analytic-fog report: simd {}, {} threads; errors against the f64 reference (worst channel per ray)",
-        r.simd, r.threads
+        "analytic-fog report: simd {}{}, {} threads; errors against the f64 reference (worst channel per ray)",
+        r.simd,
+        if r.avx512_dispatch { " (avx512 at run time)" } else { "" },
+        r.threads
     );
     let mut last = String::new();
     for row in &r.rows {
@@ -808,7 +814,7 @@ fn write_files(r: &Report, opts: &Options) -> Result<Vec<PathBuf>, String> {
         })
         .collect();
     let doc = serde_json::json!({
-        "simd": r.simd, "threads": r.threads, "rows": rows, "march_to_accurate": matches,
+        "simd": r.simd, "avx512_dispatch": r.avx512_dispatch, "threads": r.threads, "rows": rows, "march_to_accurate": matches,
         "stability": r.stability.to_json(),
     });
     let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?;

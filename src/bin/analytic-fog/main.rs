@@ -135,10 +135,19 @@ struct EvalArgs {
     progress: bool,
 }
 
+/// The SIMD level compiled in, and the run-time AVX-512 dispatch where it happens (see
+/// `analytic_fog::avx512_dispatch`): "avx2+fma", "avx2+fma, avx512 at run time".
+fn simd() -> String {
+    if analytic_fog::avx512_dispatch() {
+        format!("{}, avx512 at run time", simd_level())
+    } else {
+        simd_level().to_string()
+    }
+}
+
 fn main() -> ExitCode {
-    let version: &'static str = Box::leak(
-        format!("{} (simd {})", env!("CARGO_PKG_VERSION"), simd_level()).into_boxed_str(),
-    );
+    let version: &'static str =
+        Box::leak(format!("{} (simd {})", env!("CARGO_PKG_VERSION"), simd()).into_boxed_str());
     let cmd = Cli::command().version(version);
     let cli = match Cli::from_arg_matches(&cmd.get_matches()) {
         Ok(c) => c,
@@ -147,7 +156,7 @@ fn main() -> ExitCode {
     let result = match cli.cmd {
         Cmd::Info => {
             println!("analytic-fog {}", env!("CARGO_PKG_VERSION"));
-            println!("simd: {}", simd_level());
+            println!("simd: {}", simd());
             println!("threads: {}", rayon::current_num_threads());
             Ok(())
         }
@@ -181,7 +190,7 @@ fn report(args: &ReportArgs) -> CliResult<()> {
     let t0 = Instant::now();
     eprintln!(
         "analytic-fog report: simd {}, {} threads, {} rays per set",
-        simd_level(),
+        simd(),
         rayon::current_num_threads(),
         opts.rays
     );
@@ -265,7 +274,7 @@ fn eval(args: &EvalArgs) -> CliResult<()> {
             secs * 1e3,
             eval_secs * 1e3,
             if eval_secs > 0.0 { n_total as f64 / eval_secs / 1e6 } else { 0.0 },
-            simd_level(),
+            simd(),
             rayon::current_num_threads(),
         );
     }

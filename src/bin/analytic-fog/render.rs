@@ -322,7 +322,7 @@ pub fn render(
             t_fog.as_secs_f64() * 1e3,
             t_fog.as_secs_f64() * 1e9 / (w * h) as f64,
             rayon::current_num_threads(),
-            analytic_fog::simd_level(),
+            crate::simd(),
             t_cast.as_secs_f64() * 1e3
         );
     }
