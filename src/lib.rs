@@ -82,9 +82,18 @@
 //! build: two 8-lane halves per operation with AVX2.) [`simd_level`] reports what was
 //! compiled in.
 //!
-//! The crate's only `unsafe` code is in `math::lane`'s AVX-512 module (compiled only
-//! where the build enables AVX-512F): two blocks that call `vgetexpps`, `vgetmantps`
-//! and `vscalefps`, which `wide` does not expose.
+//! A build with AVX2 and FMA but without AVX-512 (x86-64-v3, this repository's own) that
+//! runs on a CPU with AVX-512 (F, VL, DQ, BW, CD) evaluates scenes of one height fog layer
+//! 16 lanes wide anyway, in AVX-512 registers, chosen at run time: `Scene::evaluate`,
+//! `evaluate_par` and the framebuffer pass's own kernel, with the same bits as the 8-lane
+//! path ([`avx512_dispatch`] says whether it happens, [`Scene::without_avx512_dispatch`]
+//! turns it off). Other scenes (several layers, volumes, controls) run the build's width.
+//!
+//! The crate's `unsafe` code is the AVX-512 intrinsics `wide` does not offer: `math::lane`'s
+//! AVX-512 module (compiled only where the build enables AVX-512F: `vgetexpps`,
+//! `vgetmantps`, `vscalefps`), and the run-time dispatch: `math::zmm` (a lane type over
+//! `__m512`) and the two `#[target_feature]` entry points that use it, called only after
+//! `is_x86_feature_detected!` has found the features.
 
 #![deny(unsafe_code)]
 // Every public item is documented (`cargo clippy -- -D warnings` in `.ci/run` enforces it).
