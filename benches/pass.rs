@@ -254,6 +254,24 @@ fn bench(c: &mut Criterion) {
                 .unwrap()
         })
     });
+    // The own kernel at 16 lanes without the run-time AVX-512 dispatch (`wide::f32x16`,
+    // two AVX2 halves per operation in an AVX2 build; the same as `fog_single` where
+    // `analytic_fog::avx512_dispatch()` is false).
+    let no_dispatch = scene.clone().without_avx512_dispatch();
+    let mut buf = colour.clone();
+    g.bench_function("fog_single_no_avx512_dispatch", |b| {
+        b.iter(|| {
+            no_dispatch
+                .fog_pass_single(
+                    &cam,
+                    W,
+                    H,
+                    Depth::linear_view(black_box(&depth)),
+                    ColourBuffer::Rgb(&mut buf),
+                )
+                .unwrap()
+        })
+    });
     // The Fast tier (`Tier::Fast`: T and E within its 1e-4 budget) through the own
     // kernel, on both cores and on one.
     let fast = scene.clone().with_tier(Tier::Fast);
