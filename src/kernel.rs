@@ -841,7 +841,10 @@ fn run<
     // general one (out of line) is made once per batch, not per packet.
     let single = Single::of(scene);
     // 16 AVX-512 lanes chosen at run time where the build has 8 (see `zmm`).
-    let zmm = single.is_some() && L::LANES == 8 && !scene.no_avx512_dispatch && zmm::detected();
+    let zmm = single.is_some()
+        && L::LANES == 8
+        && !scene.no_avx512_dispatch
+        && crate::math::avx512_detected();
     let full = n - n % if zmm { 16 } else { L::LANES };
     // Slices cut to `full` up front, so the loop's indexing needs no bounds checks.
     let (o0, o1, o2) = (&rays.o[0][..full], &rays.o[1][..full], &rays.o[2][..full]);
@@ -882,6 +885,8 @@ fn run<
         let rays = [o0, o1, o2, d0, d1, d2, t];
         let outs = [&mut o_tau, &mut o_tr, &mut o_li];
         if zmm {
+            // (`zmm` is false in builds without the dispatch.)
+            #[cfg(zmm_dispatch)]
             zmm::run_single::<AXIS, UNIT, WANT_T, WANT_L, FAST>(single, rays, outs);
         } else {
             run_single::<L, AXIS, UNIT, WANT_T, WANT_L, FAST>(single, rays, outs);
@@ -1012,13 +1017,10 @@ fn run_single<
                 {
                     // (No closure: see `rgb!`.)
                     let ins = [o0, o1, o2, d0, d1, d2];
-                    let at = rgb!(c => [
-                        if read::<AXIS>(c, $all_d) { L::load(ins[c]) } else { zero },
-                        if read::<AXIS>(c + 3, $all_d) { L::load(ins[c + 3]) } else { zero },
-                    ]);
+                    let at = |j: usize| read::<AXIS>(j, $all_d);
                     let p = PacketIn {
-                        o: [at[0][0], at[1][0], at[2][0]],
-                        d: [at[0][1], at[1][1], at[2][1]],
+                        o: rgb!(c => if at(c) { L::load(ins[c]) } else { zero }),
+                        d: rgb!(c => if at(c + 3) { L::load(ins[c + 3]) } else { zero }),
                         t: L::load(t),
                     };
                     let (args_k, dir_k, tame_k) =
@@ -1265,36 +1267,16 @@ fn shared_depth<L: Lane>(single: &Single, depth: &[(L, L)], gs: &mut [L; BLOCK])
     !L::any(!sum.eq(sum))
 }
 
-/// See [`crate::avx512_dispatch`].
-pub(crate) fn avx512_dispatch() -> bool {
-    zmm::detected()
-}
-
 /// Run-time dispatch to 16 AVX-512 lanes ([`crate::math::zmm::Zmm`]) in builds that do not
 /// enable AVX-512 themselves, where the CPU has it.
-#[cfg(all(
-    target_arch = "x86_64",
-    target_feature = "avx2",
-    target_feature = "fma",
-    not(target_feature = "avx512f")
-))]
+#[cfg(zmm_dispatch)]
 #[allow(unsafe_code)]
 mod zmm {
     use super::Single;
-    use crate::math::zmm::Zmm;
+    use crate::math::zmm::{detected, Zmm};
 
-    /// Whether this CPU has the AVX-512 subsets [`Zmm`] uses (F, VL, DQ, BW, CD).
-    #[inline]
-    pub(crate) fn detected() -> bool {
-        std::is_x86_feature_detected!("avx512f")
-            && std::is_x86_feature_detected!("avx512vl")
-            && std::is_x86_feature_detected!("avx512dq")
-            && std::is_x86_feature_detected!("avx512bw")
-            && std::is_x86_feature_detected!("avx512cd")
-    }
-
-    /// [`run_single`] with [`Zmm`] lanes, compiled with AVX-512 enabled. Call only where
-    /// [`detected`] is true (and lengths multiples of 16).
+    /// [`run_single`](super::run_single) with [`Zmm`] lanes, compiled with AVX-512
+    /// enabled. Call only where [`detected`] is true (and lengths multiples of 16).
     #[inline(always)]
     pub(crate) fn run_single<
         const AXIS: usize,
@@ -1324,36 +1306,6 @@ mod zmm {
         assert!(detected());
         // SAFETY: the CPU has the features `go` is compiled for (asserted above).
         unsafe { go::<AXIS, UNIT, WANT_T, WANT_L, FAST>(single, rays, outs) }
-    }
-}
-
-/// Without run-time AVX-512 dispatch (the build enables AVX-512 itself, or lacks
-/// AVX2/FMA): never taken.
-#[cfg(not(all(
-    target_arch = "x86_64",
-    target_feature = "avx2",
-    target_feature = "fma",
-    not(target_feature = "avx512f")
-)))]
-mod zmm {
-    use super::Single;
-    #[inline(always)]
-    pub(crate) fn detected() -> bool {
-        false
-    }
-    #[inline(always)]
-    pub(crate) fn run_single<
-        const AXIS: usize,
-        const UNIT: bool,
-        const WANT_T: bool,
-        const WANT_L: bool,
-        const FAST: bool,
-    >(
-        _: &Single,
-        _: [&[f32]; 7],
-        _: [&mut Option<[&mut [f32]; 3]>; 3],
-    ) {
-        unreachable!()
     }
 }
 

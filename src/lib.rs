@@ -161,7 +161,7 @@ use kernel::Width;
 /// ([`Scene::without_avx512_dispatch`] turns it off). False in an AVX-512 build, which
 /// runs 16 lanes everywhere anyway (see [`simd_level`]).
 pub fn avx512_dispatch() -> bool {
-    kernel::avx512_dispatch()
+    math::avx512_detected()
 }
 
 /// The SIMD instruction set `wide` was compiled for: `"avx512f+avx2+fma"` (the batch

@@ -19,13 +19,23 @@ mod lane;
 mod ldexp;
 mod log;
 mod log1p;
-#[cfg(all(
-    target_arch = "x86_64",
-    target_feature = "avx2",
-    target_feature = "fma",
-    not(target_feature = "avx512f")
-))]
+#[cfg(zmm_dispatch)]
 pub(crate) mod zmm;
+
+/// Whether the one-layer kernels run `zmm::Zmm`'s 16 AVX-512 lanes: a build with the
+/// run-time dispatch (`cfg(zmm_dispatch)`, see `build.rs`) on a CPU with the AVX-512
+/// subsets it uses.
+#[inline]
+pub(crate) fn avx512_detected() -> bool {
+    #[cfg(zmm_dispatch)]
+    {
+        zmm::detected()
+    }
+    #[cfg(not(zmm_dispatch))]
+    {
+        false
+    }
+}
 
 pub use asinh::asinh;
 pub use erf::{erf, erfc};

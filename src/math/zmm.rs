@@ -1,7 +1,8 @@
 //! [`Zmm`]: 16 `f32` lanes in one AVX-512 register, for builds that do not enable AVX-512
 //! themselves (the repository's x86-64-v3 build, or a dependent's) but run on a CPU that
-//! has it. The batch kernel picks it at run time (`kernel::avx512_detected`), so such a
-//! build gets the 16-lane speed of an x86-64-v4 build without requiring AVX-512 to run.
+//! has it. The one-layer kernels pick it at run time ([`detected`]), so such a build gets
+//! the 16-lane speed of an x86-64-v4 build without requiring AVX-512 to run. Compiled
+//! where `build.rs` sets `cfg(zmm_dispatch)`.
 //!
 //! Each method is the same IEEE-754 operation as in `wide::f32x8` (the rounding, the
 //! `minps`/`maxps` rule, the ordered comparisons, ties-to-even rounding), and `frexp`,
@@ -24,6 +25,17 @@
 use super::Lane;
 use core::arch::x86_64::*;
 use core::ops::{Add, BitAnd, BitOr, Div, Mul, Not, Sub};
+
+/// Whether this CPU has the AVX-512 subsets [`Zmm`] uses (F, VL, DQ, BW, CD), cached by
+/// std after the first call.
+#[inline]
+pub(crate) fn detected() -> bool {
+    std::is_x86_feature_detected!("avx512f")
+        && std::is_x86_feature_detected!("avx512vl")
+        && std::is_x86_feature_detected!("avx512dq")
+        && std::is_x86_feature_detected!("avx512bw")
+        && std::is_x86_feature_detected!("avx512cd")
+}
 
 /// 16 `f32` lanes in a `zmm` register (see the module documentation for when one may
 /// exist).

@@ -248,12 +248,7 @@ impl PassLane for f32x16 {
 /// [`crate::math::zmm::Zmm`], 16 AVX-512 lanes chosen at run time in a build without
 /// AVX-512: the same bits as `f32x16` and `f32x8` (the estimate is `vrsqrtps` on each
 /// half, the permutations are the same lanes).
-#[cfg(all(
-    target_arch = "x86_64",
-    target_feature = "avx2",
-    target_feature = "fma",
-    not(target_feature = "avx512f")
-))]
+#[cfg(zmm_dispatch)]
 impl PassLane for crate::math::zmm::Zmm {
     #[inline(always)]
     fn lane_x() -> Self {
@@ -446,7 +441,7 @@ impl HeightPass {
             depth,
             ndc,
             x8: scene.pass_lanes_8,
-            zmm: !scene.no_avx512_dispatch && crate::avx512_dispatch(),
+            zmm: !scene.no_avx512_dispatch && crate::math::avx512_detected(),
             t_big,
         })
     }
@@ -480,6 +475,8 @@ pub(crate) fn fog_rows<'a, R: RowColour>(
         }
     }
     if hp.zmm && !hp.x8 {
+        // (`hp.zmm` is false in builds without the dispatch.)
+        #[cfg(zmm_dispatch)]
         return zmm::fog_rows(hp, plan, y0, rows);
     }
     match (hp.x8, hp.n_phases) {
@@ -494,12 +491,7 @@ pub(crate) fn fog_rows<'a, R: RowColour>(
 
 /// [`fog_rows`] with [`crate::math::zmm::Zmm`] lanes, compiled with AVX-512 enabled
 /// (everything below [`rows_with`] is inlined into it).
-#[cfg(all(
-    target_arch = "x86_64",
-    target_feature = "avx2",
-    target_feature = "fma",
-    not(target_feature = "avx512f")
-))]
+#[cfg(zmm_dispatch)]
 #[allow(unsafe_code)]
 mod zmm {
     use super::{rows_with, FramePlan, HeightPass, RowColour};
@@ -523,7 +515,7 @@ mod zmm {
         y0: usize,
         rows: impl Iterator<Item = (&'a [f32], R)>,
     ) {
-        assert!(crate::avx512_dispatch());
+        assert!(crate::math::avx512_detected());
         // SAFETY: the CPU has the features `rows_zmm` is compiled for (asserted above).
         unsafe {
             match (hp.n_phases.min(2), hp.grey, hp.fast) {
@@ -541,27 +533,6 @@ mod zmm {
                 (_, true, true) => rows_zmm::<R, 2, true, true>(hp, plan, y0, rows),
             }
         }
-    }
-}
-
-/// Never taken (see [`HeightPass::zmm`]): the build enables AVX-512 itself, or lacks
-/// AVX2/FMA.
-#[cfg(not(all(
-    target_arch = "x86_64",
-    target_feature = "avx2",
-    target_feature = "fma",
-    not(target_feature = "avx512f")
-)))]
-mod zmm {
-    use super::{FramePlan, HeightPass, RowColour};
-    #[inline(always)]
-    pub(super) fn fog_rows<'a, R: RowColour>(
-        _: &HeightPass,
-        _: &FramePlan,
-        _: usize,
-        _: impl Iterator<Item = (&'a [f32], R)>,
-    ) {
-        unreachable!()
     }
 }
 
