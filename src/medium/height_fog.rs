@@ -393,6 +393,9 @@ const M_SHIFT_EXP: f32 = 32.0;
 ///   general path has ±|dm|·2^127, so min(Δ·2^-64, 0) is 0 (b·u > 0) or makes u_min −∞
 ///   in both (b·u < 0: |b·y0·2^-64| ≤ 2^104 cannot offset it; then τ = +∞, T = 0).
 ///
+/// Lanes with `NATIVE_SCALE` (AVX-512) do not call it: their general arithmetic costs
+/// less than this test (`kernel::single_args`).
+///
 /// Returns the arguments and the lanes where they are valid. The exponent of a near or
 /// sky lane is not n_e, so [`depth_with_tame`]'s shortcut does not apply to such packets.
 /// Sky lanes are tried first, and a packet of sky and plain lanes returns before the
