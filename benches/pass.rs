@@ -224,45 +224,23 @@ fn bench(c: &mut Criterion) {
                 .unwrap()
         })
     });
-    let mut buf = colour.clone();
-    g.bench_function("fog_single", |b| {
-        b.iter(|| {
-            scene
-                .fog_pass_single(
-                    &cam,
-                    W,
-                    H,
-                    Depth::linear_view(black_box(&depth)),
-                    ColourBuffer::Rgb(&mut buf),
-                )
-                .unwrap()
-        })
-    });
-    // The own kernel 8 lanes wide (the same as `fog_single` unless the build has AVX-512).
-    let lanes8 = scene.clone().with_pass_lanes_8();
-    let mut buf = colour.clone();
-    g.bench_function("fog_single_lanes8", |b| {
-        b.iter(|| {
-            lanes8
-                .fog_pass_single(
-                    &cam,
-                    W,
-                    H,
-                    Depth::linear_view(black_box(&depth)),
-                    ColourBuffer::Rgb(&mut buf),
-                )
-                .unwrap()
-        })
-    });
-    // The own kernel at 16 lanes without the run-time AVX-512 dispatch (`wide::f32x16`,
-    // two AVX2 halves per operation in an AVX2 build; the same as `fog_single` where
+    // `fog_single`: one core. `fog_single_lanes8`: the own kernel 8 lanes wide (the same
+    // as `fog_single` unless the build has AVX-512). `fog_single_no_avx512_dispatch`: the
+    // own kernel at 16 lanes without the run-time AVX-512 dispatch (`wide::f32x16`, two
+    // AVX2 halves per operation in an AVX2 build; the same as `fog_single` where
     // `analytic_fog::avx512_dispatch()` is false).
-    let no_dispatch = scene.clone().without_avx512_dispatch();
-    let mut buf = colour.clone();
-    g.bench_function("fog_single_no_avx512_dispatch", |b| {
-        b.iter(|| {
-            no_dispatch
-                .fog_pass_single(
+    for (name, sc) in [
+        ("fog_single", scene.clone()),
+        ("fog_single_lanes8", scene.clone().with_pass_lanes_8()),
+        (
+            "fog_single_no_avx512_dispatch",
+            scene.clone().without_avx512_dispatch(),
+        ),
+    ] {
+        let mut buf = colour.clone();
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                sc.fog_pass_single(
                     &cam,
                     W,
                     H,
@@ -270,8 +248,9 @@ fn bench(c: &mut Criterion) {
                     ColourBuffer::Rgb(&mut buf),
                 )
                 .unwrap()
-        })
-    });
+            })
+        });
+    }
     // The Fast tier (`Tier::Fast`: T and E within its 1e-4 budget) through the own
     // kernel, on both cores and on one.
     let fast = scene.clone().with_tier(Tier::Fast);
