@@ -9,7 +9,8 @@
 //! `frexp_finite` and `scale2` are the x86-64-v4 build's `vgetexpps`/`vgetmantps` and
 //! `vscalefps` forms, so a ray gives the same bits through `Zmm` as through `f32x8` and
 //! the scalar path (`tests/lanes16.rs` checks each method, the suites' bit-for-bit tests
-//! the kernels). Masks are AVX-512 mask registers (`__mmask16`).
+//! the kernels). One method is not in `Lane` and has other bits: [`Zmm::rsqrt14`], the
+//! estimate the framebuffer pass refines. Masks are AVX-512 mask registers (`__mmask16`).
 //!
 //! # Safety
 //! Every method calls AVX-512F intrinsics. A `Zmm` value must therefore exist only on a
@@ -119,15 +120,12 @@ impl Zmm {
         Zmm::load(&a)
     }
 
-    /// The 8-lane estimate of 1/√x (`vrsqrtps`) on each half: the bits of
-    /// `wide::f32x8::recip_sqrt` (AVX-512's own `vrsqrt14ps` is another estimate).
+    /// AVX-512's estimate of 1/√x (`vrsqrt14ps`, relative error below 2⁻¹⁴): one
+    /// instruction where `vrsqrtps` on each 8-lane half takes four (with the extract and
+    /// insert), and more precise, but other bits than `vrsqrtps`.
     #[inline(always)]
-    pub(crate) fn rsqrt_estimate_halves(self) -> Zmm {
-        Zmm(unsafe {
-            let lo = _mm256_rsqrt_ps(_mm512_castps512_ps256(self.0));
-            let hi = _mm256_rsqrt_ps(_mm512_extractf32x8_ps::<1>(self.0));
-            _mm512_insertf32x8::<1>(_mm512_castps256_ps512(lo), hi)
-        })
+    pub(crate) fn rsqrt14(self) -> Zmm {
+        Zmm(unsafe { _mm512_rsqrt14_ps(self.0) })
     }
 
     /// Lanes 8h to 8h + 7 (`h` is 0 or 1).

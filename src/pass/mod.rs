@@ -25,7 +25,8 @@
 //! test), not bit-identical. Its |d| and phase denominators use the hardware reciprocal
 //! square root estimate refined by one Newton step: the same bits on every run, thread
 //! count and colour layout on one machine, but CPUs whose estimates differ (AMD and Intel
-//! do) may differ in the last bits, within the bound. Frames outside its ranges (an eye thousands of scale heights
+//! do, and AVX-512's `vrsqrt14ps`, which the lanes chosen at run time take, differs from
+//! AVX2's `vrsqrtps`) may differ in the last bits, within the bound. Frames outside its ranges (an eye thousands of scale heights
 //! above or below the fog, extinctions beyond 1e±30, see `height.rs`) fall back to the
 //! batch kernel.
 //!
