@@ -428,9 +428,25 @@ impl_lane_wide! { lane_x16, f32x16, i32x16, 16, {
     }
 } }
 
+/// AVX-512's estimate of 1/√x (`vrsqrt14ps`) on 16 lanes, in builds with AVX-512F: the
+/// framebuffer pass's estimate there (`pass::height::PassLane`).
+#[cfg(target_feature = "avx512f")]
+#[inline(always)]
+pub(crate) fn rsqrt14_x16(x: f32x16) -> f32x16 {
+    avx512::x16::rsqrt14(x)
+}
+
+/// [`rsqrt14_x16`] on 8 lanes (AVX-512VL).
+#[cfg(all(target_feature = "avx512f", target_feature = "avx512vl"))]
+#[inline(always)]
+pub(crate) fn rsqrt14_x8(x: f32x8) -> f32x8 {
+    avx512::x8::rsqrt14(x)
+}
+
 /// AVX-512 forms of two `Lane` methods: `frexp` by `vgetexpps`/`vgetmantps` (9
 /// instructions with the fix-ups for 0, ±inf and NaN, against about 12), `scale2` (ldexp)
-/// by `vscalefps` (1, against 11). Same results as the generic forms (NaN payloads aside) within their preconditions:
+/// by `vscalefps` (1, against 11); and AVX-512's reciprocal square root estimate for the
+/// framebuffer pass (`rsqrt14_x16`, `rsqrt14_x8`). Same results as the generic forms (NaN payloads aside) within their preconditions:
 /// both are exact or round once, and the fix-ups give the generic `frexp`'s values for
 /// 0, ±inf and NaN. `tests/lanes16.rs` and the kernels' bit-for-bit tests check it in the
 /// x86-64-v4 build (`.ci/run`).
@@ -445,8 +461,8 @@ mod avx512 {
     use core::arch::x86_64::*;
 
     macro_rules! width {
-        ($name:ident, $F:ty, $R:ty, $getexp:ident, $getmant:ident, $scalef:ident
-         $(, $cfg:meta)?) => {
+        ($name:ident, $F:ty, $R:ty, $getexp:ident, $getmant:ident, $scalef:ident,
+         $rsqrt14:ident $(, $cfg:meta)?) => {
             $(#[$cfg])?
             pub(super) mod $name {
                 use super::*;
@@ -491,6 +507,14 @@ mod avx512 {
                     // SAFETY: see the module documentation.
                     unsafe { $scalef(x.into(), e.into()) }.into()
                 }
+
+                /// AVX-512's estimate of 1/√x (`vrsqrt14ps`, relative error below
+                /// 2⁻¹⁴; not a `Lane` method: its bits are not `vrsqrtps`').
+                #[inline(always)]
+                pub(crate) fn rsqrt14(x: F) -> F {
+                    // SAFETY: see the module documentation.
+                    unsafe { $rsqrt14(x.into()) }.into()
+                }
             }
         };
     }
@@ -501,7 +525,8 @@ mod avx512 {
         __m512,
         _mm512_getexp_ps,
         _mm512_getmant_ps,
-        _mm512_scalef_ps
+        _mm512_scalef_ps,
+        _mm512_rsqrt14_ps
     );
     width!(
         x8,
@@ -510,6 +535,7 @@ mod avx512 {
         _mm256_getexp_ps,
         _mm256_getmant_ps,
         _mm256_scalef_ps,
+        _mm256_rsqrt14_ps,
         cfg(target_feature = "avx512vl")
     );
 }

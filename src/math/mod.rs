@@ -47,6 +47,10 @@ pub use expm1::expm1;
 pub use exprel::exprel_neg;
 pub use fast::{exp_neg_fast, exp_split_fast, exprel_neg_fast};
 pub use frexp::frexp;
+#[cfg(target_feature = "avx512f")]
+pub(crate) use lane::rsqrt14_x16;
+#[cfg(all(target_feature = "avx512f", target_feature = "avx512vl"))]
+pub(crate) use lane::rsqrt14_x8;
 pub use lane::Lane;
 pub use ldexp::{ldexp, pow2_pair};
 pub use log::{log, log_scaled};

@@ -122,7 +122,8 @@ impl Zmm {
 
     /// AVX-512's estimate of 1/√x (`vrsqrt14ps`, relative error below 2⁻¹⁴): one
     /// instruction where `vrsqrtps` on each 8-lane half takes four (with the extract and
-    /// insert), and more precise, but other bits than `vrsqrtps`.
+    /// insert), and more precise, but other bits than `vrsqrtps`; the same bits as an
+    /// AVX-512 build's `math::rsqrt14_x16`.
     #[inline(always)]
     pub(crate) fn rsqrt14(self) -> Zmm {
         Zmm(unsafe { _mm512_rsqrt14_ps(self.0) })
