@@ -446,7 +446,9 @@ pub(crate) fn rsqrt14_x8(x: f32x8) -> f32x8 {
 /// AVX-512 forms of two `Lane` methods: `frexp` by `vgetexpps`/`vgetmantps` (9
 /// instructions with the fix-ups for 0, ±inf and NaN, against about 12), `scale2` (ldexp)
 /// by `vscalefps` (1, against 11); and AVX-512's reciprocal square root estimate for the
-/// framebuffer pass (`rsqrt14_x16`, `rsqrt14_x8`). Same results as the generic forms (NaN payloads aside) within their preconditions:
+/// framebuffer pass (`rsqrt14_x16`, `rsqrt14_x8`: other bits than `vrsqrtps`). The two
+/// `Lane` methods give the same results as the generic forms (NaN payloads aside) within
+/// their preconditions:
 /// both are exact or round once, and the fix-ups give the generic `frexp`'s values for
 /// 0, ±inf and NaN. `tests/lanes16.rs` and the kernels' bit-for-bit tests check it in the
 /// x86-64-v4 build (`.ci/run`).
