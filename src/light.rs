@@ -85,7 +85,8 @@ impl Phase {
 /// relative precision.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct PhaseEval {
-    /// 0 isotropic, 1 Rayleigh, 2 Henyey–Greenstein, 3 Cornette–Shanks ([`Self::KIND`]).
+    /// 0 isotropic, 1 Rayleigh, 2 Henyey–Greenstein, 3 Cornette–Shanks (the `KIND` of
+    /// [`Self::eval_kind`]).
     pub(crate) kind: u8,
     num: f32,
     /// (1 ∓ g)², |g|, and ∓s: the denominator is (base + gg·|v ∓ s|²)^{3/2}.
