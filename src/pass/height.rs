@@ -571,13 +571,15 @@ fn rows_with<'a, R: RowColour, W: PassLane, const PH: usize, const GREY: bool, c
 /// Packets per block: the row is processed block by block in stages (see [`row`]).
 const BLOCK: usize = 16;
 
-/// Fogs a row in blocks of [`BLOCK`] packets, each block in three passes over small
-/// buffers: the rays' geometry and phase or fog colour, then the optical depth's factor
-/// g' = n·t·exp2m1(y')/y', then T, L_in and the colour. One packet's work is a dependency
-/// chain of some 150 cycles (the reciprocal square root, `exp2m1`, a division and
-/// `exp2_nonpos` in sequence), longer than the out-of-order window can hide when each
-/// packet runs start to end; in stages, the packets of a block are independent within
-/// each loop.
+/// Fogs a row in blocks of [`BLOCK`] packets, each block in stages over small buffers:
+/// the rays' geometry, then their phase value or fog colour (the directions formed again:
+/// four operations per packet), then the optical depth's factor g' = n·t·exp2m1(y')/y',
+/// then T, L_in and the colour. One packet's work is a dependency chain of some 150 cycles
+/// (the reciprocal square roots, `exp2m1`, a division and `exp2_nonpos` in sequence),
+/// longer than the out-of-order window can hide when each packet runs start to end; in
+/// stages, the packets of a block are independent within each loop. (Geometry and phase
+/// in one loop measured 1.05× slower on Zen 5: that loop's chain ran through both
+/// reciprocal square roots.)
 ///
 /// An interleaved RGB row with at most one phase function takes the third stage in the
 /// buffer's own layout: g (and the phase value) expanded to three lanes per packet
@@ -701,36 +703,43 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     // 1. Geometry: y' = −Δ·log2(e) (away from 0), n·t, and the phase value or fog colour.
     // Column indices, exact in f32 (width ≤ 2^24), stepped by N: the values
     // `FramePlan::ray` forms from x0 + k.
-    let mut xs = W::splat(x_start as f32) + W::lane_x();
-    for ((((dv, y), g), (p, c)), p3) in depth
+    let x_first = W::splat(x_start as f32) + W::lane_x();
+    let mut xs = x_first;
+    for (((dv, y), g), p) in depth
         .chunks_exact(n_lanes)
         .zip(ys.iter_mut())
         .zip(gs.iter_mut())
-        .zip(ps.iter_mut().zip(colours.iter_mut()))
-        .zip(ps3.iter_mut())
+        .zip(ps.iter_mut())
     {
-        // The direction as `FramePlan::ray` forms it.
-        let u = xs.mul_add(W::splat(plan.su), W::splat(plan.ou));
-        let d = [
-            u.mul_add(W::splat(plan.d_u[0]), W::splat(rp.d[0])),
-            u.mul_add(W::splat(plan.d_u[1]), W::splat(rp.d[1])),
-            u.mul_add(W::splat(plan.d_u[2]), W::splat(rp.d[2])),
-        ];
+        let d = direction(plan, rp, xs);
         let (yv, nt, inv_n) = geometry(hp, d, W::load(dv));
         *y = yv;
         *g = nt;
-        if PH == 1 {
-            let pv = hp.phases[0].eval(d, inv_n, hp.beta);
-            // A full block of an interleaved RGB row reads only the expanded value.
-            if rgb3 && full_block {
-                *p3 = pv.expand3();
-            } else {
-                *p = pv;
-            }
-        } else if PH > 1 {
-            *c = colour(hp, d, inv_n);
+        if PH > 0 {
+            // 1/|d| for the phase loop below (which then overwrites it).
+            *p = inv_n;
         }
         xs = xs + W::splat(n_lanes as f32);
+    }
+    // 1b. The phase value or fog colour, in a loop of its own (see `row`).
+    if PH > 0 {
+        let mut xs = x_first;
+        for ((p, c), p3) in ps.iter_mut().zip(colours.iter_mut()).zip(ps3.iter_mut()) {
+            let d = direction(plan, rp, xs);
+            let inv_n = *p;
+            if PH == 1 {
+                let pv = hp.phases[0].eval(d, inv_n, hp.beta);
+                // A full block of an interleaved RGB row reads only the expanded value.
+                if rgb3 && full_block {
+                    *p3 = pv.expand3();
+                } else {
+                    *p = pv;
+                }
+            } else {
+                *c = colour(hp, d, inv_n);
+            }
+            xs = xs + W::splat(n_lanes as f32);
+        }
     }
     // 2. g' = n·t·exp2m1(y')/y' (= n·t·E(Δ)·ln 2), clamped to f32::MAX so that K_c = 0
     // gives 0, not 0·∞.
@@ -809,6 +818,17 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
         }
         x0 += n_lanes;
     }
+}
+
+/// The directions of the pixels at columns `xs` of a row, as `FramePlan::ray` forms them.
+#[inline(always)]
+fn direction<W: PassLane>(plan: &FramePlan, rp: &RowPlan, xs: W) -> [W; 3] {
+    let u = xs.mul_add(W::splat(plan.su), W::splat(plan.ou));
+    [
+        u.mul_add(W::splat(plan.d_u[0]), W::splat(rp.d[0])),
+        u.mul_add(W::splat(plan.d_u[1]), W::splat(rp.d[1])),
+        u.mul_add(W::splat(plan.d_u[2]), W::splat(rp.d[2])),
+    ]
 }
 
 /// L_in = c · (1 − T) = c − c·T, one fused multiply-add (one rounding instead of two).
