@@ -167,8 +167,8 @@ fn rsqrt<W: PassLane>(x: W) -> W {
 /// time (`Zmm`) and, in a build with AVX-512, `f32x16` and `f32x8` (AVX-512VL), so the
 /// widths of one build still agree bit for bit. One instruction instead of four for 16
 /// lanes (two estimates, an extract and an insert), the whole pass 1.10× faster on Zen 5,
-/// and other last bits than AVX2's (the refined 1/√x within about 2·2⁻²⁴ instead of
-/// 4·2⁻²⁴).
+/// and other last bits than AVX2's (the refined 1/√x within a bound of about 2·2⁻²⁴
+/// instead of 4·2⁻²⁴; see [`rsqrt`]).
 pub(crate) trait PassLane: Lane {
     /// The lanes' column offsets, 0, 1, …, LANES − 1.
     fn lane_x() -> Self;
@@ -700,7 +700,7 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     let rgb3 = R::RGB3 && PH < 2;
     // Every packet of the block is full (all blocks but a row's padded tail).
     let full_block = last_n == n_lanes;
-    // 1. Geometry: y' = −Δ·log2(e) (away from 0), n·t, and the phase value or fog colour.
+    // 1. Geometry: y' = −Δ·log2(e) (away from 0), n·t, and 1/|d| for stage 1b.
     // Column indices, exact in f32 (width ≤ 2^24), stepped by N: the values
     // `FramePlan::ray` forms from x0 + k.
     let x_first = W::splat(x_start as f32) + W::lane_x();
