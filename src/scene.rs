@@ -445,7 +445,7 @@ fn compile_limits(l: &FogLimits) -> Result<LimitsPlan, SceneError> {
     })
 }
 
-/// See [`LayerPlan::shared_scale`].
+/// See [`LayerCore::shared_scale`].
 fn shared_scale(sigma: [f32; 3]) -> Option<(f32, [f32; 3])> {
     let max = sigma.iter().cloned().fold(0.0f32, f32::max);
     if max == 0.0 {

@@ -4,7 +4,7 @@
 //! fdlibm's `asinhf` made branch-free, for a = |x|:
 //! - a < 2: `log1p(a + a² / (√(a² + 1) + 1))` (no cancellation; returns `a` for tiny a);
 //! - 2 ≤ a < 2^12: `ln(2a + 1 / (√(a² + 1) + a))`;
-//! - a ≥ 2^12: `ln(a · 2)` by [`log_scaled`](super::log_scaled) (no overflow up to f32::MAX);
+//! - a ≥ 2^12: `ln(a · 2)` by [`log_scaled`] (no overflow up to f32::MAX);
 //!
 //! and the sign put back. Both branches are evaluated only where some lane needs them.
 //!

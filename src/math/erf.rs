@@ -11,7 +11,7 @@
 //! - 0.84375 ≤ a < 1.25: `erfc(a) = 1 − erx − P(s)/Q(s)`, s = a − 1;
 //! - 1.25 ≤ a < 28: `erfc(a) = exp(−z² − 0.5625) · exp((z − a)(z + a) + R(1/a²)/S(1/a²)) / a`
 //!   with `z` = a rounded to 11 significant bits (`z²` exact), two coefficient sets split
-//!   at 1/0.35; the exponentials are this crate's [`exp`] (1 ULP);
+//!   at 1/0.35; the exponentials are this crate's [`exp`](fn@super::exp) (1 ULP);
 //! - erfc(x < 0) = 2 − erfc(|x|); erf(a ≥ 6) = 1 (the true value rounds to 1);
 //!   erfc(x ≥ 28) = 0 (the true value leaves the f32 range at x ≈ 10.05).
 //!

@@ -2,7 +2,7 @@
 //! arrives already scaled by −log2(e) (the framebuffer pass folds −log2(e) into its
 //! per-frame extinction constants, so `e^(−τ) = 2^(−τ·log2 e)` costs no extra multiply).
 //!
-//! Cheaper than [`exp_neg`](super::exp_neg): no multiply by log2(e) and no Cody–Waite
+//! Cheaper than [`exp_neg`](fn@super::exp_neg): no multiply by log2(e) and no Cody–Waite
 //! reduction (two FMAs): `k = round(y)`
 //! and `f = y − k` are exact, so the reduction adds no error. Polynomial:
 //! `2^f = 1 + f·P(f)` on [−1/2, 1/2], `P` of degree 5, a Chebyshev fit from

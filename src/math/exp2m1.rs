@@ -3,7 +3,7 @@
 //! that the argument arrives in base 2.
 //!
 //! Reduction: `k = round(y)`, `f = y − k` in [−1/2, 1/2], both exact (no multiply by
-//! log2(e), no Cody–Waite split: two FMAs fewer than [`expm1`](super::expm1)). Polynomial:
+//! log2(e), no Cody–Waite split: two FMAs fewer than [`expm1`](fn@super::expm1)). Polynomial:
 //! `2^f − 1 = f·P(f)`, `P` of degree 6, a Chebyshev fit from `tools/fit_poly.py` (max
 //! relative error with f32 coefficients 5.6e-9, 0.09 ULP). Reconstruction:
 //! `2^y − 1 = 2^k·f·P(f) + (2^k − 1)`, one FMA with 2^k·f exact; k = 0 returns `f·P(f)`

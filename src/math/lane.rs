@@ -96,7 +96,7 @@ pub trait Lane:
     /// True where `scale2` is one instruction (AVX-512 `vscalefps`): callers then scale
     /// each channel on its own instead of sharing a [`super::pow2_pair`].
     const NATIVE_SCALE: bool = false;
-    /// [`super::frexp`]: `(m, e)` with `self = m · 2^e`, `|m|` in [1, 2).
+    /// [`frexp`](fn@super::frexp): `(m, e)` with `self = m · 2^e`, `|m|` in [1, 2).
     #[inline(always)]
     fn frexp(self) -> (Self, Self) {
         super::frexp::frexp_bits(self)
@@ -109,7 +109,7 @@ pub trait Lane:
     fn frexp_finite(self) -> (Self, Self) {
         self.frexp()
     }
-    /// [`super::ldexp`]: `self · 2^e` rounded once, saturating.
+    /// [`ldexp`](fn@super::ldexp): `self · 2^e` rounded once, saturating.
     #[inline(always)]
     fn scale2(self, e: Self) -> Self {
         let (s1, s2) = super::pow2_pair(e);

@@ -1,7 +1,7 @@
 //! `ln(x)` for f32 lanes, and `ln(x · 2^k)` for an extra integer exponent `k` (the large
 //! branch of `asinh`, where `2x` may overflow).
 //!
-//! Reduction: `x = m · 2^e` by [`frexp`](super::frexp) (subnormals included), `m` folded
+//! Reduction: `x = m · 2^e` by [`frexp`](fn@super::frexp) (subnormals included), `m` folded
 //! into [√2/2, √2), `f = m − 1` exact. Kernel: fdlibm's `logf` (FreeBSD `e_logf.c`, public
 //! domain notice of Sun Microsystems): `s = f / (2 + f)`, `R(s²)` of degree 4 (max error
 //! 2^-34.24), `ln2` split into 16+24 bits so that `e · LN2_HI` is exact. No branch.

@@ -4,7 +4,7 @@
 //! branch-free: `u = 1 + x` rounded, `u = m · 2^k` with `m` in [√2/2, √2), and the rounding
 //! of `1 + x` put back as the correction `c = (x − (u − 1)) / u` (or `(1 − (u − x)) / u`
 //! for k ≥ 2); for k = 0 the kernel gets `f = x` itself, so tiny and subnormal inputs come
-//! back exactly. Kernel shared with [`log`](super::log).
+//! back exactly. Kernel shared with [`log`](fn@super::log).
 //!
 //! Domain: x ≥ −1 (`log1p(−1) = −inf`, NaN below and for NaN, `+inf` for `+inf`).
 //! Measured: max error 0.84 ULP over every f32 (`tests/exhaustive_volume_math.rs`, against
