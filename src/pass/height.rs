@@ -578,7 +578,7 @@ const BLOCK: usize = 16;
 /// (the reciprocal square roots, `exp2m1`, a division and `exp2_nonpos` in sequence),
 /// longer than the out-of-order window can hide when each packet runs start to end; in
 /// stages, the packets of a block are independent within each loop. (Geometry and phase
-/// in one loop measured 1.05× slower on Zen 5: that loop's chain ran through both
+/// in one loop measured 1.07× slower on Zen 5: that loop's chain ran through both
 /// reciprocal square roots.)
 ///
 /// An interleaved RGB row with at most one phase function takes the third stage in the
