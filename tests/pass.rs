@@ -474,7 +474,8 @@ fn own_kernel_within_the_accuracy_bound() {
         let scene = Scene::new(desc.clone()).unwrap();
         let cam = camera(&mut rng, w, h);
         let conv = convention(&mut rng, &cam);
-        if scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap() {
+        let own_frame = scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap();
+        if own_frame {
             own += 1;
         } else {
             declined += 1;
@@ -500,8 +501,7 @@ fn own_kernel_within_the_accuracy_bound() {
         // Where the own kernel runs AVX-512 lanes chosen at run time, its estimate of 1/√x
         // is AVX-512's (`vrsqrt14ps`): other last bits than the AVX2 widths, which give
         // the same bits as each other; each is held to the bound below.
-        let own_zmm =
-            analytic_fog::avx512_dispatch() && scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap();
+        let own_zmm = analytic_fog::avx512_dispatch() && own_frame;
         // The AVX2 lanes' results for the black and the white surface, RGB.
         let mut avx2 = [vec![0.0f32; 3 * n], vec![0.0f32; 3 * n]];
         for (k, (surface, planes)) in [(0.0, &black), (BIG, &white)].into_iter().enumerate() {
@@ -571,6 +571,7 @@ fn own_kernel_within_the_accuracy_bound() {
             };
             let (r, chk) = check_pixel(&desc, &ray, t, l, ctx);
             worst = worst.max(chk.trans_ratio.max(chk.insc_ratio));
+            let scale = r.colour.iter().cloned().fold(1e-30, f64::max);
             if own_zmm {
                 // The AVX2 lanes' results: within the bound too, and near the AVX-512
                 // lanes' (|d| and the phase denominators within a few 2⁻²⁴ of each
@@ -579,7 +580,6 @@ fn own_kernel_within_the_accuracy_bound() {
                 let t2 = [0, 1, 2].map(|c| recover_t(avx2[1][3 * i + c], l2[c]));
                 let (_, chk2) = check_pixel(&desc, &ray, t2, l2, ctx);
                 worst = worst.max(chk2.trans_ratio.max(chk2.insc_ratio));
-                let scale = r.colour.iter().cloned().fold(1e-30, f64::max);
                 for c in 0..3 {
                     dz_t = dz_t.max((t[c] - t2[c]).abs());
                     dz_l = dz_l.max((l[c] - l2[c]).abs() as f64 / scale);
@@ -595,7 +595,6 @@ fn own_kernel_within_the_accuracy_bound() {
                     );
                 }
             }
-            let scale = r.colour.iter().cloned().fold(1e-30, f64::max);
             for c in 0..3 {
                 dt_max = dt_max.max((t[c] - bt[i][c]).abs());
                 dl_max = dl_max.max((l[c] - bl[i][c]).abs() as f64 / scale);
