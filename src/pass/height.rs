@@ -46,7 +46,7 @@
 //! exp2m1 ≤ 1.69 ULP and the division, three products: τ within about 9 + 4·|Δ| ULP,
 //! inside the crate's bound 16·2⁻²⁴·(1 + |b·(y₀ − h0)| + |Δ|) (here y₀'s term is resolved
 //! in f64); T adds the rounding of K·g (τ·2⁻²³ relative, what the bound on τ allows) and
-//! `exp2_nonpos`'s 1.09 ULP.
+//! `exp2_nonpos`'s 0.88 ULP.
 //! `tests/pass.rs` checks every pixel of random frames against the batch API.
 
 use super::camera::{DepthPlan, FramePlan, RowPlan};
@@ -636,6 +636,11 @@ struct Buffers<W> {
 }
 
 impl<W: PassLane> Buffers<W> {
+    /// (Out of line: its `Zmm` instance is compiled without AVX-512 and calls
+    /// `_mm512_loadu_ps` out of line nine times per band of rows, about 1.5 % of a frame's
+    /// samples on Zen 5; inlined into the AVX-512 entry point, it moved that function's
+    /// register allocation and the stage of T grew from 94 to 101 instructions per packet,
+    /// 8 % slower in `passloop`: twenty-ninth session.)
     fn new(hp: &HeightPass) -> Self {
         let zero = W::splat(0.0);
         Buffers {
