@@ -12,7 +12,8 @@
 //! `W=1920 H=16`, whose depth and colour stay in cache, against the full frame's 58 MB).
 //! `PAR=1` runs the rayon pass (`Scene::fog_pass`; `RAYON_NUM_THREADS` sets its threads)
 //! instead of the calling thread's (`Scene::fog_pass_single`); `PAR=2` runs two frames at
-//! once, each on one thread.
+//! once, each on one thread. `NO512=1` keeps the build's own lanes where the x86-64-v3
+//! build would run AVX-512 ones (`Scene::without_avx512_dispatch`).
 
 use analytic_fog::pass::{Camera, ColourBuffer, Depth};
 use analytic_fog::{Component, HeightFogLayer, Lighting, Phase, Scene, SceneDesc, Sun};
@@ -41,6 +42,13 @@ fn main() {
     .unwrap();
     let scene = if std::env::args().nth(1).as_deref() == Some("batch") {
         scene.with_batch_kernel_pass()
+    } else {
+        scene
+    };
+    // `NO512=1`: the build's own lanes, as on a CPU without AVX-512
+    // (`Scene::without_avx512_dispatch`).
+    let scene = if std::env::var("NO512").is_ok_and(|v| v == "1") {
+        scene.without_avx512_dispatch()
     } else {
         scene
     };
