@@ -8,12 +8,11 @@
 //! `2^f = 1 + f·P(f)` on [−1/2, 1/2], `P` of degree 5, a Chebyshev fit from
 //! `tools/fit_poly.py` (max relative error of the polynomial with f32 coefficients
 //! 9.2e-9, 0.15 ULP), evaluated in Horner's scheme. (Estrin's scheme, 3 operations deep
-//! instead of 5, took the pass's `fog_single` from 5.87 to 5.33 ms on Zen 1 when its stage
-//! of T was bound by the latency of three such chains per packet, at 1.09 ULP. Since the
-//! pass runs its rows in blocks of independent packets, Horner's form is as fast there on
-//! Zen 5, one multiply fewer per call, and closer: twenty-ninth session,
-//! docs/speed-history.md.) The result is scaled by one power of two,
-//! flushing results below 2^-126 (y < −126.5) to zero, an absolute error below 1.2e-38. y
+//! instead of 5, had taken the pass's `fog_single` from 5.87 to 5.33 ms on a Zen 4, in
+//! the x86-64-v3 build's two AVX2 halves per operation, at 1.09 ULP. On Zen 5 Horner's
+//! form measured as fast in the pass's AVX-512 lanes, with one multiply fewer per call and
+//! a smaller error: twenty-ninth session, docs/speed-history.md; the AVX2 lanes were not
+//! compared.) The result is scaled by one power of two, flushing results below 2^-126 (y < −126.5) to zero, an absolute error below 1.2e-38. y
 //! above −2^-60 is taken as −2^-60 (the result is 1 either way), so that no operand is
 //! subnormal. No branch.
 //!
