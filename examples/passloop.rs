@@ -98,32 +98,13 @@ fn main() {
     // without the pass's own split into bands.
     if std::env::var("PAR").is_ok_and(|v| v == "2") {
         let mut c2 = c.clone();
+        let frame = |c: &mut [f32]| {
+            let (dv, cb) = (Depth::linear_view(&depth), ColourBuffer::Rgb(c));
+            scene.fog_pass_single(&cam, w, h, dv, cb).unwrap()
+        };
         for _ in 0..frames {
             let t0 = std::time::Instant::now();
-            rayon::join(
-                || {
-                    scene
-                        .fog_pass_single(
-                            &cam,
-                            w,
-                            h,
-                            Depth::linear_view(&depth),
-                            ColourBuffer::Rgb(&mut c),
-                        )
-                        .unwrap()
-                },
-                || {
-                    scene
-                        .fog_pass_single(
-                            &cam,
-                            w,
-                            h,
-                            Depth::linear_view(&depth),
-                            ColourBuffer::Rgb(&mut c2),
-                        )
-                        .unwrap()
-                },
-            );
+            rayon::join(|| frame(&mut c), || frame(&mut c2));
             best = best.min(t0.elapsed().as_secs_f64() / 2.0);
         }
         println!(
