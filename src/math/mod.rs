@@ -19,7 +19,7 @@ mod lane;
 mod ldexp;
 mod log;
 mod log1p;
-#[cfg(zmm_dispatch)]
+#[cfg(any(zmm_dispatch, zmm_native))]
 pub(crate) mod zmm;
 
 /// Whether the one-layer kernels run `zmm::Zmm`'s 16 AVX-512 lanes: a build with the

@@ -1,8 +1,10 @@
 //! [`Zmm`]: 16 `f32` lanes in one AVX-512 register, for builds that do not enable AVX-512
 //! themselves (the repository's x86-64-v3 build, or a dependent's) but run on a CPU that
-//! has it. The one-layer kernels pick it at run time ([`detected`]), so such a build gets
+//! has it. The one-layer kernels pick it at run time (`detected`), so such a build gets
 //! the 16-lane speed of an x86-64-v4 build without requiring AVX-512 to run. Compiled
-//! where `build.rs` sets `cfg(zmm_dispatch)`.
+//! where `build.rs` sets `cfg(zmm_dispatch)`, and where it sets `cfg(zmm_native)` (a build
+//! that enables these AVX-512 subsets itself, e.g. x86-64-v4): there it is the kernels'
+//! 16-lane type (`kernel::Wide`, the pass's `PassWide`), with no dispatch.
 //!
 //! Each method is the same IEEE-754 operation as in `wide::f32x8` (the rounding, the
 //! `minps`/`maxps` rule, the ordered comparisons, ties-to-even rounding), and `frexp`,
@@ -17,11 +19,16 @@
 //! CPU with AVX-512F, AVX-512VL, AVX-512DQ, AVX-512BW and AVX-512CD: the type is private
 //! to the crate, and the only code that creates one is reached through the
 //! `#[target_feature]` entry points of `kernel`, which are called only after
-//! `is_x86_feature_detected!` has found those features. The methods are
+//! `is_x86_feature_detected!` has found those features (or, with `cfg(zmm_native)`,
+//! anywhere: such a binary enables the features at compile time and needs them to run at
+//! all, as every x86-64-v4 binary does). The methods are
 //! `#[inline(always)]` so that they are compiled inside those entry points, with the
 //! features enabled (a method compiled outside them would still be correct, only slow:
 //! a call per intrinsic).
 #![allow(unsafe_code)]
+// Where the build enables AVX-512 itself (`cfg(zmm_native)`), the intrinsics are safe to
+// call and the `unsafe` blocks are redundant there.
+#![cfg_attr(zmm_native, allow(unused_unsafe))]
 
 use super::Lane;
 use core::arch::x86_64::*;
@@ -29,6 +36,7 @@ use core::ops::{Add, BitAnd, BitOr, Div, Mul, Not, Sub};
 
 /// Whether this CPU has the AVX-512 subsets [`Zmm`] uses (F, VL, DQ, BW, CD), cached by
 /// std after the first call.
+#[cfg(zmm_dispatch)]
 #[inline]
 pub(crate) fn detected() -> bool {
     std::is_x86_feature_detected!("avx512f")

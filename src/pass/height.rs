@@ -69,7 +69,14 @@ use wide::{f32x16, f32x8};
 /// binary (twenty-first session, Zen 1; README "Speed of the pass"). Same bits at both
 /// widths (see [`PassLane`]). The batch kernel measured 3 to 6 % slower with `f32x16` in
 /// the AVX2 build and stays at 8 lanes there.
+#[cfg(not(zmm_native))]
 type PassWide = f32x16;
+/// See the other definition: in a build with AVX-512 F, VL, DQ, BW and CD (x86-64-v4),
+/// the crate's own [`Zmm`](crate::math::zmm::Zmm), the type the x86-64-v3 build's
+/// run-time dispatch runs: with `f32x16` the x86-64-v4 build's pass took 1.16× that
+/// path's time on Zen 5 (ARCHITECTURE "AVX-512 chosen at run time").
+#[cfg(zmm_native)]
+type PassWide = crate::math::zmm::Zmm;
 
 /// Rays are clamped to a frame's T_BIG, at most this (see the module documentation).
 const T_BIG_MAX: f32 = 1e37;
@@ -158,7 +165,7 @@ fn rsqrt<W: PassLane>(x: W) -> W {
 }
 
 /// What the pass's own kernel needs of a lane type beyond [`Lane`]: the estimate of
-/// 1/√x and the interleaved-RGB layouts. Implemented for `f32x8` and `f32x16`; the kernel
+/// 1/√x and the interleaved-RGB layouts. Implemented for `f32x8`, `f32x16` and `Zmm`; the kernel
 /// runs [`PassWide`] (16 lanes), and gives the same bits at both widths:
 /// every operation is the same IEEE operation per element, and the 16-lane estimate is
 /// the 8-lane instruction (`vrsqrtps`) on each half, not AVX-512's more precise
@@ -264,7 +271,7 @@ impl PassLane for f32x16 {
 /// [`crate::math::zmm::Zmm`], 16 AVX-512 lanes chosen at run time in a build without
 /// AVX-512: the same operations as `f32x16` and `f32x8` except the estimate of 1/√x,
 /// AVX-512's `vrsqrt14ps` (see [`PassLane`]), so not the same last bits.
-#[cfg(zmm_dispatch)]
+#[cfg(any(zmm_dispatch, zmm_native))]
 impl PassLane for crate::math::zmm::Zmm {
     #[inline(always)]
     fn lane_x() -> Self {
@@ -700,6 +707,10 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     } = bufs;
     let (ys, gs, ps, colours) = (&mut ys[..m], &mut gs[..m], &mut ps[..m], &mut colours[..m]);
     let (gs3, ps3) = (&mut gs3[..m], &mut ps3[..m]);
+    // Copies, so that the third stage keeps them in registers: read through the buffers'
+    // reference, they were loaded again for every packet in the x86-64-v4 build (whose
+    // `Buffers::new` is inlined).
+    let (k3, colour3, phase_k3) = (*k3, *colour3, *phase_k3);
     // The third stage takes the buffer's own layout (full packets of an interleaved RGB
     // row with at most one phase function).
     let rgb3 = R::RGB3 && PH < 2;
