@@ -645,7 +645,8 @@ struct Buffers<W> {
 impl<W: PassLane> Buffers<W> {
     /// (Out of line: its `Zmm` instance is compiled without AVX-512 and calls
     /// `_mm512_loadu_ps` out of line nine times per band of rows, about 1.5 % of a frame's
-    /// samples on Zen 5; inlined into the AVX-512 entry point, it moved that function's
+    /// samples on Zen 5 in bands of two rows, before the pass's bands were made larger for
+    /// this kernel (`pass::OWN_BAND_PIXELS`); inlined into the AVX-512 entry point, it moved that function's
     /// register allocation and the stage of T grew from 94 to 101 instructions per packet,
     /// 8 % slower in `passloop`: twenty-ninth session.)
     fn new(hp: &HeightPass) -> Self {

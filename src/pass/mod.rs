@@ -136,6 +136,9 @@ type PlanarBand<'a> = (
 
 /// Pixels per parallel task (whole rows, at least one): about 100 KB of colour and depth.
 const BAND_PIXELS: usize = 4096;
+/// At most this many for the frame's own kernel (`height.rs`), whose per-band set-up
+/// costs more: 17 rows of a 1920-pixel frame.
+const OWN_BAND_PIXELS: usize = 32768;
 
 impl Scene {
     /// Fogs a frame in place: every pixel's colour L becomes `L · T + L_in`, with T and
@@ -333,10 +336,6 @@ fn fog_pass(
     // once and used by all their packets (`cull`).
     let cull = FrameCull::new(scene, &plan, width, height);
     let cull = cull.as_ref();
-    let band = match cull {
-        Some(_) => TILE_H * (BAND_PIXELS / (width * TILE_H)).max(1),
-        None => (BAND_PIXELS / width).max(1),
-    };
     // The frame's own kernel where it applies (`height.rs`).
     let hp = if cull.is_none() && !scene.exact_pass {
         HeightPass::new(scene, &plan)
@@ -344,6 +343,22 @@ fn fog_pass(
         None
     };
     let hp = hp.as_ref();
+    let band = match (cull, hp) {
+        (Some(_), _) => TILE_H * (BAND_PIXELS / (width * TILE_H)).max(1),
+        // The own kernel sets up its block buffers once per band (about 12 KB zeroed, the
+        // constants formed): in bands of two 1920-pixel rows a 1080p frame took 1.12× the
+        // time of one band on Zen 5 (thirtieth session). So one band on one thread, and in
+        // parallel larger ones where there are rows enough for at least eight per thread.
+        (None, Some(_)) if !par => height,
+        (None, Some(_)) => {
+            let per_thread = height / (8 * rayon::current_num_threads().max(1));
+            per_thread.clamp(
+                (BAND_PIXELS / width).max(1),
+                (OWN_BAND_PIXELS / width).max(1),
+            )
+        }
+        (None, None) => (BAND_PIXELS / width).max(1),
+    };
     let d = depth.values;
     match colour {
         ColourBuffer::Rgb(c) => interleaved::<3>(scene, &plan, cull, hp, width, band, d, c, par),
