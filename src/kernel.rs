@@ -1322,7 +1322,8 @@ mod zmm {
 /// `wide::f32x16`. All give the same bits (each `Lane` method is the same IEEE operation at
 /// any width). `Zmm` rather than `f32x16` there: the code the run-time dispatch of the
 /// x86-64-v3 build runs (the batch kernels measured the same with either; the pass's own
-/// kernel 1.12× faster with `Zmm`: ARCHITECTURE "AVX-512 chosen at run time").
+/// kernel 1.12× faster with `Zmm` and its constants copied into locals; `Zmm` alone about
+/// 1.05×, the copy alone nothing: ARCHITECTURE "AVX-512 chosen at run time").
 #[cfg(not(any(target_feature = "avx512f", zmm_native)))]
 pub(crate) type Wide = f32x8;
 /// See the other definition.
