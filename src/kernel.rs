@@ -1391,9 +1391,15 @@ pub(crate) const PAR_CHUNK_MAX: usize = 65536;
 /// batch has the rays. (Each call of [`evaluate`] has a fixed cost: a 64K-ray batch as
 /// sixteen calls of 4096 rays took 1.05× the time of one call on Zen 5.)
 pub(crate) fn evaluate_par(scene: &Scene, rays: &Rays<'_>, out: Outputs<'_>, width: Width) {
-    let per_thread = rays.len() / (8 * rayon::current_num_threads().max(1));
-    let chunk = per_thread.clamp(PAR_CHUNK, PAR_CHUNK_MAX);
+    let chunk = par_task_len(rays.len(), PAR_CHUNK, PAR_CHUNK_MAX);
     split_par(scene, rays, out, width, chunk);
+}
+
+/// The size of a parallel task over `items` units of work: at least eight tasks per rayon
+/// thread where there are items enough, each of `min` to `max` items (`min ≤ max`). Used
+/// by [`evaluate_par`] (rays) and the framebuffer pass (rows).
+pub(crate) fn par_task_len(items: usize, min: usize, max: usize) -> usize {
+    (items / (8 * rayon::current_num_threads().max(1))).clamp(min, max)
 }
 
 /// [`evaluate_par`] in halves down to `chunk` rays.

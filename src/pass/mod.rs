@@ -350,13 +350,11 @@ fn fog_pass(
         // time of one band on Zen 5 (thirtieth session). So one band on one thread, and in
         // parallel larger ones where there are rows enough for at least eight per thread.
         (None, Some(_)) if !par => height,
-        (None, Some(_)) => {
-            let per_thread = height / (8 * rayon::current_num_threads().max(1));
-            per_thread.clamp(
-                (BAND_PIXELS / width).max(1),
-                (OWN_BAND_PIXELS / width).max(1),
-            )
-        }
+        (None, Some(_)) => crate::kernel::par_task_len(
+            height,
+            (BAND_PIXELS / width).max(1),
+            (OWN_BAND_PIXELS / width).max(1),
+        ),
         (None, None) => (BAND_PIXELS / width).max(1),
     };
     let d = depth.values;
