@@ -2,7 +2,9 @@
 //!
 //! - x8 (`Scene::evaluate`), scalar (`Scene::evaluate_scalar`) and rayon
 //!   (`Scene::evaluate_par`) give bit-identical results, for every batch length 0..=37
-//!   (every tail length), every output subset, and unit-direction batches;
+//!   (every tail length), every output subset, and unit-direction batches; and batches of
+//!   ~600K rays on 1, 2 and 3 threads, so that `evaluate_par`'s tasks reach their largest
+//!   size (65536 rays), not only its smallest (4096);
 //! - the f32 results against the independent f64 reference (`analytic_fog::reference`)
 //!   within the bound of issue #2 (`reference::check_sample`, documented in
 //!   `src/reference/check.rs`), over typical and extreme ranges and over arbitrary finite
@@ -449,6 +451,24 @@ proptest! {
         let par = eval(&sc, &rays, false, Path::Par, all);
         assert_same_bits(&x8, &scalar, all, "x8 vs scalar")?;
         assert_same_bits(&x8, &par, all, "x8 vs par")?;
+    }
+
+    /// Batches long enough that `evaluate_par`'s tasks are larger than its smallest (4096
+    /// rays): ~600K rays give tasks of 65536 rays (the largest) on one thread and ~37K on
+    /// two, with a tail that is not a multiple of 16. Same bits as `evaluate`.
+    #[test]
+    fn par_large_tasks_bit_identical(
+        (_desc, sc, rays) in case(Range::Extreme, 1..=64, true),
+        n in 600_000usize..600_100,
+    ) {
+        let rays: Vec<Ray> = (0..n).map(|i| rays[(i * 7) % rays.len()]).collect();
+        let all = [true; 3];
+        let x8 = eval(&sc, &rays, false, Path::X8, all);
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let par = pool.install(|| eval(&sc, &rays, false, Path::Par, all));
+            assert_same_bits(&x8, &par, all, &format!("x8 vs par on {threads} threads"))?;
+        }
     }
 }
 
