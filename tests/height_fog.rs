@@ -3,8 +3,8 @@
 //! - x8 (`Scene::evaluate`), scalar (`Scene::evaluate_scalar`) and rayon
 //!   (`Scene::evaluate_par`) give bit-identical results, for every batch length 0..=37
 //!   (every tail length), every output subset, and unit-direction batches; and batches of
-//!   ~600K rays on 1, 2 and 3 threads, so that `evaluate_par`'s tasks reach their largest
-//!   size (65536 rays), not only its smallest (4096);
+//!   ~600K rays on 1, 2 and 3 threads, so that `evaluate_par`'s tasks are ~18.7K to
+//!   ~37.5K rays, not only its smallest (4096);
 //! - the f32 results against the independent f64 reference (`analytic_fog::reference`)
 //!   within the bound of issue #2 (`reference::check_sample`, documented in
 //!   `src/reference/check.rs`), over typical and extreme ranges and over arbitrary finite
@@ -454,8 +454,9 @@ proptest! {
     }
 
     /// Batches long enough that `evaluate_par`'s tasks are larger than its smallest (4096
-    /// rays): ~600K rays give tasks of 65536 rays (the largest) on one thread and ~37K on
-    /// two, with a tail that is not a multiple of 16. Same bits as `evaluate`.
+    /// rays): ~600K rays, halved down to the task size (65536 rays on one thread, ~37.5K
+    /// on two, 25K on three), give tasks of ~18.7K to ~37.5K rays, with a tail that is not
+    /// a multiple of 16. Same bits as `evaluate`.
     #[test]
     fn par_large_tasks_bit_identical(
         (_desc, sc, rays) in case(Range::Extreme, 1..=64, true),
