@@ -14,6 +14,9 @@
 //! instead of the calling thread's (`Scene::fog_pass_single`); `PAR=2` runs two frames at
 //! once, each on one thread. `NO512=1` keeps the build's own lanes where the x86-64-v3
 //! build would run AVX-512 ones (`Scene::without_avx512_dispatch`).
+//! `PLAIN=1` runs the plain pass of `benches/pass.rs` (read depth and colour, write
+//! colour; one thread) instead of the fog pass: with `H=` it shows at what frame size the
+//! frame stops fitting in the cache this process gets (the fog pass's memory stalls).
 
 use analytic_fog::pass::{Camera, ColourBuffer, Depth};
 use analytic_fog::{Component, HeightFogLayer, Lighting, Phase, Scene, SceneDesc, Sun};
@@ -93,6 +96,26 @@ fn main() {
     // `PAR=1`: the rayon pass (`Scene::fog_pass`) instead of the calling thread's.
     let par = std::env::var("PAR").is_ok_and(|v| v == "1");
     let mut best = f64::INFINITY;
+    // `PLAIN=1`: the plain pass (as `benches/pass.rs`'s `plain`, one thread).
+    if std::env::var("PLAIN").is_ok_and(|v| v == "1") {
+        for _ in 0..frames {
+            let t0 = std::time::Instant::now();
+            for (px, z) in c.chunks_exact_mut(3).zip(&depth) {
+                let z = z.min(1e4);
+                for v in px {
+                    *v = *v * 0.5 + z * 1e-3;
+                }
+            }
+            best = best.min(t0.elapsed().as_secs_f64());
+        }
+        println!(
+            "{}  plain pass, best frame of {frames}: {:.3} ms, {:.3} ns per pixel",
+            c[12345 % c.len()],
+            best * 1e3,
+            best * 1e9 / (w * h) as f64
+        );
+        return;
+    }
     // `PAR=2`: two frames at once, each on its own thread (`rayon::join` of two
     // `fog_pass_single`), printing the best pair's time per frame: how the cores scale
     // without the pass's own split into bands.
