@@ -95,25 +95,19 @@ fn main() {
         .max(1);
     // `PAR=1`: the rayon pass (`Scene::fog_pass`) instead of the calling thread's.
     let par = std::env::var("PAR").is_ok_and(|v| v == "1");
-    let mut best = f64::INFINITY;
     // `PLAIN=1`: the plain pass (as `benches/pass.rs`'s `plain`, one thread).
     if std::env::var("PLAIN").is_ok_and(|v| v == "1") {
-        for _ in 0..frames {
-            let t0 = std::time::Instant::now();
+        let best = best_of(frames, || {
             for (px, z) in c.chunks_exact_mut(3).zip(&depth) {
                 let z = z.min(1e4);
                 for v in px {
                     *v = *v * 0.5 + z * 1e-3;
                 }
             }
-            best = best.min(t0.elapsed().as_secs_f64());
-        }
-        println!(
-            "{}  plain pass, best frame of {frames}: {:.3} ms, {:.3} ns per pixel",
-            c[12345 % c.len()],
-            best * 1e3,
-            best * 1e9 / (w * h) as f64
-        );
+        });
+        let (ms, ns) = (best * 1e3, best * 1e9 / (w * h) as f64);
+        let v = c[12345 % c.len()];
+        println!("{v}  plain pass, best frame of {frames}: {ms:.3} ms, {ns:.3} ns per pixel");
         return;
     }
     // `PAR=2`: two frames at once, each on its own thread (`rayon::join` of two
@@ -125,11 +119,9 @@ fn main() {
             let (dv, cb) = (Depth::linear_view(&depth), ColourBuffer::Rgb(c));
             scene.fog_pass_single(&cam, w, h, dv, cb).unwrap()
         };
-        for _ in 0..frames {
-            let t0 = std::time::Instant::now();
+        let best = best_of(frames, || {
             rayon::join(|| frame(&mut c), || frame(&mut c2));
-            best = best.min(t0.elapsed().as_secs_f64() / 2.0);
-        }
+        }) / 2.0;
         println!(
             "two frames at once: best {:.3} ms per frame, {:.3} ns per pixel",
             best * 1e3,
@@ -137,20 +129,29 @@ fn main() {
         );
         return;
     }
-    for _ in 0..frames {
-        let t0 = std::time::Instant::now();
+    let best = best_of(frames, || {
         let (dv, cb) = (Depth::linear_view(&depth), ColourBuffer::Rgb(&mut c));
         if par {
             scene.fog_pass(&cam, w, h, dv, cb).unwrap();
         } else {
             scene.fog_pass_single(&cam, w, h, dv, cb).unwrap();
         }
-        best = best.min(t0.elapsed().as_secs_f64());
-    }
+    });
     println!(
         "{}  best frame of {frames}: {:.3} ms, {:.3} ns per pixel",
         c[12345 % c.len()],
         best * 1e3,
         best * 1e9 / (w * h) as f64
     );
+}
+
+/// The shortest of `frames` runs of `f`, in seconds.
+fn best_of(frames: usize, mut f: impl FnMut()) -> f64 {
+    let mut best = f64::INFINITY;
+    for _ in 0..frames {
+        let t0 = std::time::Instant::now();
+        f();
+        best = best.min(t0.elapsed().as_secs_f64());
+    }
+    best
 }
