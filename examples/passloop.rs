@@ -95,7 +95,8 @@ fn main() {
         .max(1);
     // `PAR=1`: the rayon pass (`Scene::fog_pass`) instead of the calling thread's.
     let par = std::env::var("PAR").is_ok_and(|v| v == "1");
-    // `PLAIN=1`: the plain pass (as `benches/pass.rs`'s `plain`, one thread).
+    // `PLAIN=1`: the plain pass: `benches/pass.rs`'s `plain` arithmetic on one thread, sky
+    // depths clamped to 1e4 as in the bench's depth for it (so the colour stays finite).
     if std::env::var("PLAIN").is_ok_and(|v| v == "1") {
         let best = best_of(frames, || {
             for (px, z) in c.chunks_exact_mut(3).zip(&depth) {
