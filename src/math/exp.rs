@@ -43,14 +43,15 @@ pub(crate) fn q4_signed<L: Lane>(w: L, sign: f32) -> L {
         .mul_add(w, c0)
 }
 
-/// Cody–Waite reduction of a non-negative argument for `e^(-x)`: returns `(k, w)` with
-/// `-x = k*ln2 - w`, i.e. `w = x + k*ln2 = -r`.
+/// Cody–Waite reduction of an argument in [0, 88] (or NaN) for `e^(-x)`: returns
+/// `(w, 2^k)` with `-x = k*ln2 - w`, i.e. `w = x + k*ln2 = -r`; k ≥ −127, where 2^k
+/// is 0 ([`Lane::round_pow2i`]).
 #[inline(always)]
 pub(crate) fn reduce_ln2_neg<L: Lane>(x: L) -> (L, L) {
-    let k = (x * L::splat(-LOG2E)).round();
+    let (k, s) = (x * L::splat(-LOG2E)).round_pow2i();
     let w = k.mul_add(L::splat(LN2_HI), x);
     let w = k.mul_add(L::splat(LN2_LO), w);
-    (k, w)
+    (w, s)
 }
 
 /// Cody–Waite reduction: returns `(k, r)` with `x = k*ln2 + r`.

@@ -3,7 +3,8 @@
 //! that the argument arrives in base 2.
 //!
 //! Reduction: `k = round(y)`, `f = y − k` in [−1/2, 1/2], both exact (no multiply by
-//! log2(e), no Cody–Waite split: two FMAs fewer than [`expm1`](fn@super::expm1)). Polynomial:
+//! log2(e), no Cody–Waite split: two FMAs fewer than [`expm1`](fn@super::expm1)); k and
+//! 2^k from one add ([`Lane::round_pow2i`]). Polynomial:
 //! `2^f − 1 = f·P(f)`, `P` of degree 6, a Chebyshev fit from `tools/fit_poly.py` (max
 //! relative error with f32 coefficients 5.6e-9, 0.09 ULP). Reconstruction:
 //! `2^y − 1 = 2^k·f·P(f) + (2^k − 1)`, one FMA with 2^k·f exact; k = 0 returns `f·P(f)`
@@ -24,7 +25,7 @@ use super::Lane;
 pub fn exp2m1<L: Lane>(y: L) -> L {
     // `maxps`/`minps` with y second: NaN stays NaN.
     let y = L::splat(127.0).min(L::splat(-64.0).max(y));
-    let k = y.round();
+    let (k, s) = y.round_pow2i();
     let f = y - k;
     let p = L::splat(1.529_732_4e-5)
         .mul_add(f, L::splat(0.000_154_614_45))
@@ -33,7 +34,6 @@ pub fn exp2m1<L: Lane>(y: L) -> L {
         .mul_add(f, L::splat(0.055_504_11))
         .mul_add(f, L::splat(0.240_226_51))
         .mul_add(f, L::splat(core::f32::consts::LN_2));
-    let s = L::pow2i(k);
     // 2^k·f is exact, so p is the only rounded factor before the final FMA.
     (s * f).mul_add(p, s - L::splat(1.0))
 }

@@ -24,10 +24,10 @@ use super::Lane;
 pub fn exp_neg<L: Lane>(x: L) -> L {
     // x clamped to 88: k = round(-x * log2 e) >= -127, and pow2i(-127) = 0 flushes.
     let x = L::splat(88.0).min(x);
-    let (k, w) = reduce_ln2_neg(x);
+    let (w, s) = reduce_ln2_neg(x);
     // e^r = 1 + r + r^2 Q(r) with r = -w, as 1 + w·(w·Q(−w) − 1): no w² (which is
     // subnormal for w < 2^-63, a microcode assist on some CPUs: a `stiff` batch, an eighth
     // of it such τ, took 1.6× a typical one on Zen 1), one operation fewer, and more accurate (see above).
     let p = w.mul_add(w.mul_sub(q4_signed(w, -1.0), L::splat(1.0)), L::splat(1.0));
-    p * L::pow2i(k)
+    p * s
 }

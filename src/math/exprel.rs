@@ -21,9 +21,8 @@ use super::Lane;
 pub fn exprel_neg<L: Lane>(x: L) -> L {
     // Beyond 30, 1 - e^(-x) = 1 in f32.
     let xc = L::splat(30.0).min(x);
-    let (k, w) = reduce_ln2_neg(xc);
+    let (w, s) = reduce_ln2_neg(xc);
     // expm1(r) = r + r^2 Q(r) with r = -w
     let p = (w * w).mul_sub(q5_signed(w, -1.0), w);
-    let s = L::pow2i(k);
     s.neg_mul_add(p, L::splat(1.0) - s) / x
 }

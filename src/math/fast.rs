@@ -40,11 +40,11 @@ fn q2_signed<L: Lane>(w: L, sign: f32) -> L {
 #[inline(always)]
 pub fn exp_neg_fast<L: Lane>(x: L) -> L {
     let x = L::splat(88.0).min(x);
-    let k = (x * L::splat(-LOG2E)).round();
+    let (k, s) = (x * L::splat(-LOG2E)).round_pow2i();
     let w = k.mul_add(L::splat(LN2), x);
     // 1 + w·(w·Q(−w) − 1), as in `exp_neg`: no subnormal w² for tiny w.
     let p = w.mul_add(w.mul_sub(q2_signed(w, -1.0), L::splat(1.0)), L::splat(1.0));
-    p * L::pow2i(k)
+    p * s
 }
 
 /// `e^x` as `(m, k)` with `e^x ≈ m · 2^k`, m in [0.7, 1.42], relative error ≤ 1.5e-5
@@ -61,10 +61,9 @@ pub fn exp_split_fast<L: Lane>(x: L) -> (L, L) {
 #[inline(always)]
 pub fn exprel_neg_fast<L: Lane>(x: L) -> L {
     let xc = L::splat(30.0).min(x);
-    let k = (xc * L::splat(-LOG2E)).round();
+    let (k, s) = (xc * L::splat(-LOG2E)).round_pow2i();
     let w = k.mul_add(L::splat(LN2), xc);
     // e^(−w) − 1 = −w + w²·Q2(−w); e^(−x) = s·(1 + p) with s = 2^k.
     let p = (w * w).mul_sub(q2_signed(w, -1.0), w);
-    let s = L::pow2i(k);
     s.neg_mul_add(p, L::splat(1.0) - s) / x
 }

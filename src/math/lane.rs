@@ -80,7 +80,23 @@ pub trait Lane:
 
     /// `2^k` for an integer-valued `k` in `[-126, 128]` (128 gives `+inf`), built from
     /// the exponent bits: one add and one shift.
-    fn pow2i(k: Self) -> Self;
+    #[inline(always)]
+    fn pow2i(k: Self) -> Self {
+        Self::shl23(k + Self::splat(POW2_MAGIC))
+    }
+    /// `(round(y), 2^round(y))` (ties to even) for `y` in `[-127, 127]`, where `2^-127`
+    /// gives 0: one add of [`POW2_MAGIC`] serves both (the rounded integer is left in
+    /// the sum's low mantissa bits), so the pair costs an add, a subtract and a shift
+    /// instead of `round` (two µops on Intel) and [`Lane::pow2i`]'s add and shift. The
+    /// same bits as `(y.round(), pow2i(y.round()))`.
+    #[inline(always)]
+    fn round_pow2i(self) -> (Self, Self) {
+        let t = self + Self::splat(POW2_MAGIC);
+        (t - Self::splat(POW2_MAGIC), Self::shl23(t))
+    }
+    /// The bits of `self` shifted left by 23 (an integer in the low mantissa bits moved
+    /// into the exponent field).
+    fn shl23(self) -> Self;
     /// The biased exponent field of `self` (0 for zero and subnormals, 255 for inf/NaN),
     /// as an integer-valued float.
     fn exponent_field(self) -> Self;
@@ -117,9 +133,10 @@ pub trait Lane:
     }
 }
 
-/// 1.5 * 2^23: adding it to an integer-valued float in [-2^22, 2^22] leaves the integer
-/// in the low mantissa bits.
-const ROUND_MAGIC: f32 = 12_582_912.0;
+/// 1.5 · 2^23 + 127: adding it to a float in [-2^22, 2^22] rounds it to an integer k
+/// (ties to even, the current rounding mode) and leaves k + 127, the biased exponent of
+/// 2^k, in the low mantissa bits.
+pub(crate) const POW2_MAGIC: f32 = 12_582_912.0 + 127.0;
 
 impl Lane for f32 {
     type Mask = bool;
@@ -247,8 +264,8 @@ impl Lane for f32 {
         m
     }
     #[inline(always)]
-    fn pow2i(k: Self) -> Self {
-        f32::from_bits((k + (ROUND_MAGIC + 127.0)).to_bits() << 23)
+    fn shl23(self) -> Self {
+        f32::from_bits(self.to_bits() << 23)
     }
     #[inline(always)]
     fn exponent_field(self) -> Self {
@@ -366,8 +383,8 @@ macro_rules! impl_lane_wide {
                     m.any()
                 }
                 #[inline(always)]
-                fn pow2i(k: Self) -> Self {
-                    as_f(as_i(k + <$F>::splat(ROUND_MAGIC + 127.0)) << 23)
+                fn shl23(self) -> Self {
+                    as_f(as_i(self) << 23)
                 }
                 #[inline(always)]
                 fn exponent_field(self) -> Self {

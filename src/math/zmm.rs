@@ -101,9 +101,6 @@ binop!(Div, div, _mm512_div_ps);
 unsafe impl Send for Zmm {}
 unsafe impl Sync for Zmm {}
 
-/// 1.5 · 2^23 + 127 (see `Lane::pow2i` of the other lane types).
-const POW2_MAGIC: f32 = 12_582_912.0 + 127.0;
-
 impl Zmm {
     #[inline(always)]
     fn bits(self) -> __m512i {
@@ -254,9 +251,8 @@ impl Lane for Zmm {
         m.0 != 0
     }
     #[inline(always)]
-    fn pow2i(k: Self) -> Self {
-        let b = (k + Zmm::splat(POW2_MAGIC)).bits();
-        Zmm::from_bits(unsafe { _mm512_slli_epi32::<23>(b) })
+    fn shl23(self) -> Self {
+        Zmm::from_bits(unsafe { _mm512_slli_epi32::<23>(self.bits()) })
     }
     #[inline(always)]
     fn exponent_field(self) -> Self {
