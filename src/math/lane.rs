@@ -85,7 +85,7 @@ pub trait Lane:
         Self::shl23(k + Self::splat(POW2_MAGIC))
     }
     /// `(round(y), 2^round(y))` (ties to even) for `y` in `[-127, 127]`, where `2^-127`
-    /// gives 0: one add of [`POW2_MAGIC`] serves both (the rounded integer is left in
+    /// gives 0: one add of 1.5·2^23 + 127 serves both (the rounded integer is left in
     /// the sum's low mantissa bits), so the pair costs an add, a subtract and a shift
     /// instead of `round` (two µops on Intel) and [`Lane::pow2i`]'s add and shift. The
     /// same bits as `(y.round(), pow2i(y.round()))`.
