@@ -7,7 +7,8 @@
 //! and `f = y − k` are exact, so the reduction adds no error. k and 2^k come from one add
 //! of a magic constant ([`Lane::round_pow2i`]: add, subtract, shift instead of `vroundps`,
 //! two µops on Intel, and an add and a shift; the pass 3.6–5.1 % faster on the Intel Xeon
-//! of the thirty-fifth session in five of six alternating rounds, same bits). Polynomial:
+//! of the thirty-fifth session in five of six alternating rounds; a half-integer y now
+//! takes the odd k, f = ±1/2 either way, the maxima below unchanged). Polynomial:
 //! `2^f = 1 + f·P(f)` on [−1/2, 1/2], `P` of degree 5, a Chebyshev fit from
 //! `tools/fit_poly.py` (max relative error of the polynomial with f32 coefficients
 //! 9.2e-9, 0.15 ULP), evaluated in Estrin's scheme: 3 operations deep instead of 5, which

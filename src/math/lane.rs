@@ -84,11 +84,14 @@ pub trait Lane:
     fn pow2i(k: Self) -> Self {
         Self::shl23(k + Self::splat(POW2_MAGIC))
     }
-    /// `(round(y), 2^round(y))` (ties to even) for `y` in `[-127, 127]`, where `2^-127`
-    /// gives 0: one add of 1.5·2^23 + 127 serves both (the rounded integer is left in
-    /// the sum's low mantissa bits), so the pair costs an add, a subtract and a shift
-    /// instead of `round` (two µops on Intel) and [`Lane::pow2i`]'s add and shift. The
-    /// same bits as `(y.round(), pow2i(y.round()))`.
+    /// `(k, 2^k)` with k = y rounded to an integer, for `y` in `[-127, 127]`, where
+    /// `2^-127` gives 0: one add of 1.5·2^23 + 127 serves both (the rounded integer is
+    /// left in the sum's low mantissa bits), so the pair costs an add, a subtract and a
+    /// shift instead of `round` (two µops on Intel) and [`Lane::pow2i`]'s add and shift.
+    /// The sum rounds ties to even, and the constant is odd, so a tie (y = j + 1/2) goes
+    /// to the odd k, where [`Lane::round`] takes the even one: y − k is ±1/2 either way,
+    /// and every caller's polynomial covers both ends. Elsewhere the same bits as
+    /// `(y.round(), pow2i(y.round()))`; in every lane type the same bits as each other.
     #[inline(always)]
     fn round_pow2i(self) -> (Self, Self) {
         let t = self + Self::splat(POW2_MAGIC);
@@ -134,7 +137,7 @@ pub trait Lane:
 }
 
 /// 1.5 · 2^23 + 127: adding it to a float in [-2^22, 2^22] rounds it to an integer k
-/// (ties to even, the current rounding mode) and leaves k + 127, the biased exponent of
+/// (the sum ties to even, so k ties to odd) and leaves k + 127, the biased exponent of
 /// 2^k, in the low mantissa bits.
 pub(crate) const POW2_MAGIC: f32 = 12_582_912.0 + 127.0;
 
