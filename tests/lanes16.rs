@@ -233,3 +233,62 @@ fn x16_equals_scalar_for_ldexp_and_lane_operations() {
     }
     assert_eq!(bad, 0, "lanes where x16 differs from scalar");
 }
+
+/// `Lane::round_pow2i` over its domain [-127, 127] (every 257th f32 there, and every
+/// integer and half-integer): k is an integer within 1/2 of y, a tie takes the odd k
+/// (as documented), 2^k is exact (0 for k = −127), checked in f64; the 8- and 16-lane
+/// forms give the scalar bits.
+#[test]
+fn round_pow2i_against_f64_in_every_width() {
+    let mut ys: Vec<f32> = (0..=508).map(|j| j as f32 * 0.5 - 127.0).collect();
+    ys.extend([
+        0.0,
+        -0.0,
+        1e-30,
+        -1e-30,
+        0.49999997,
+        -0.49999997,
+        126.99999,
+        -126.99999,
+    ]);
+    let mut b = 0u32;
+    while b < 0x8000_0000 {
+        for y in [f32::from_bits(b), -f32::from_bits(b)] {
+            if y.abs() <= 127.0 {
+                ys.push(y);
+            }
+        }
+        b += STRIDE;
+    }
+    ys.resize(ys.len().div_ceil(16) * 16, 0.0);
+    let mut bad = 0;
+    for c in ys.chunks_exact(16) {
+        let a: [f32; 16] = c.try_into().unwrap();
+        let (k16, s16) = Lane::round_pow2i(f32x16::new(a));
+        let (k16, s16) = (k16.to_array(), s16.to_array());
+        let lo: [f32; 8] = a[..8].try_into().unwrap();
+        let (k8, s8) = Lane::round_pow2i(wide::f32x8::new(lo));
+        let (k8, s8) = (k8.to_array(), s8.to_array());
+        for i in 0..16 {
+            let y = f64::from(a[i]);
+            let (k, s) = Lane::round_pow2i(a[i]);
+            let kd = f64::from(k);
+            let ok_k = kd.fract() == 0.0
+                && (y - kd).abs() <= 0.5
+                && ((y - kd).abs() < 0.5 || kd.rem_euclid(2.0) == 1.0);
+            let want_s = if kd <= -127.0 { 0.0 } else { 2f64.powf(kd) };
+            let ok = ok_k
+                && f64::from(s) == want_s
+                && same(k16[i], k)
+                && same(s16[i], s)
+                && (i >= 8 || (same(k8[i], k) && same(s8[i], s)));
+            if !ok {
+                if bad < 3 {
+                    eprintln!("y = {y:e}: k = {k}, 2^k = {s:e}");
+                }
+                bad += 1;
+            }
+        }
+    }
+    assert_eq!(bad, 0, "inputs where round_pow2i is wrong");
+}
