@@ -6,7 +6,7 @@
 //!
 //! Every f32 input of each function's domain (all 2^32 bit patterns for `exp`, `expm1`,
 //! `exp_split`, `frexp` and `exp2m1`; every f32 >= 0 for `exp_neg`, every f32 <= 0 for
-//! `exp2_nonpos`, every f32 >= 2^-60 for `exprel_neg`; every mantissa of `ldexp`'s precondition domain with a sampled exponent)
+//! `exp2_nonpos` and `exp2_nonpos_table`, every f32 >= 2^-60 for `exprel_neg`; every mantissa of `ldexp`'s precondition domain with a sampled exponent)
 //! is evaluated 8 at a time through the `wide::f32x8` instantiation, and one at a time
 //! through the scalar `f32` instantiation, which must give the same bits. Errors are
 //! measured in ULP of the correctly rounded f32 result (2^-149 for subnormal results)
@@ -27,6 +27,7 @@ const EXPM1_MAX_ULP: f64 = 1.44;
 const EXP_NEG_MAX_ULP: f64 = 0.95;
 const EXPREL_NEG_MAX_ULP: f64 = 1.73;
 const EXP2_NONPOS_MAX_ULP: f64 = 1.09;
+const EXP2_NONPOS_TABLE_MAX_ULP: f64 = 0.993;
 const EXP2M1_MAX_ULP: f64 = 1.69;
 /// `exp_split`'s `m · 2^k` (not rounded into the f32 range), for x in [-104, 89].
 const EXP_SPLIT_MAX_ULP: f64 = 0.96;
@@ -464,6 +465,23 @@ fn exp2_nonpos_exhaustive() {
         EXP2_NONPOS_MAX_ULP,
     );
     // Every f32 in [-126, -0] and +0 is in the ULP domain.
+    assert_eq!(n, (-126f32).to_bits() as u64 - 0x8000_0000 + 2);
+}
+
+#[test]
+#[ignore = "exhaustive sweep: run in release with --ignored"]
+fn exp2_nonpos_table_exhaustive() {
+    // The same domain; 8 lanes (one `vpermt2ps` and `vscalefps` each with AVX-512VL, the
+    // lane-by-lane forms otherwise) against the scalar form, bit for bit.
+    let n = transmittance_sweep(
+        "exp2_nonpos_table",
+        &vec![(0, 0), (0x8000_0000, 0xffff_ffff)],
+        ["[-126, 0] (results >= 2^-126)", "[-inf, -126)"],
+        math::exp2_nonpos_table,
+        math::exp2_nonpos_table,
+        |x| x.exp2(),
+        EXP2_NONPOS_TABLE_MAX_ULP,
+    );
     assert_eq!(n, (-126f32).to_bits() as u64 - 0x8000_0000 + 2);
 }
 

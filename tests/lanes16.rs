@@ -120,6 +120,7 @@ fn x16_equals_scalar_for_every_special_function() {
         ("exp_neg", one!(math::exp_neg)),
         ("expm1", one!(math::expm1)),
         ("exp2_nonpos", one!(math::exp2_nonpos)),
+        ("exp2_nonpos_table", one!(math::exp2_nonpos_table)),
         ("exp2m1", one!(math::exp2m1)),
         ("exprel_neg", one!(math::exprel_neg)),
         ("exp_neg_fast", one!(math::exp_neg_fast)),

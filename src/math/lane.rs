@@ -128,6 +128,40 @@ pub trait Lane:
     fn frexp_finite(self) -> (Self, Self) {
         self.frexp()
     }
+    /// `table[i]` in each lane, with `i` the low 4 bits of that lane's bits (`vpermps`
+    /// with AVX-512; here lane by lane).
+    #[inline(always)]
+    fn lookup16(self, table: &[f32; 16]) -> Self {
+        let (mut a, mut r) = ([0f32; 16], [0f32; 16]);
+        self.store(&mut a);
+        for (r, a) in r.iter_mut().zip(&a).take(Self::LANES) {
+            *r = table[(a.to_bits() & 15) as usize];
+        }
+        Self::load(&r)
+    }
+    /// `self · 2^⌊e⌋` where `y` is not below `lo` (NaN included), and +0 where it is:
+    /// AVX-512's `vscalefps` with a zeroing mask. Precondition: where `y ≥ lo`, `e` is
+    /// finite and `self` normal or NaN, and the product is not above f32::MAX (then it is
+    /// rounded once here as there, subnormal results included); lane by lane here.
+    #[inline(always)]
+    fn scale2_floor_or_zero(self, e: Self, y: Self, lo: f32) -> Self {
+        let (mut a, mut b, mut c) = ([0f32; 16], [0f32; 16], [0f32; 16]);
+        self.store(&mut a);
+        e.store(&mut b);
+        y.store(&mut c);
+        for ((a, b), c) in a.iter_mut().zip(&b).zip(&c).take(Self::LANES) {
+            *a = if *c < lo {
+                0.0
+            } else {
+                // 2^⌊e⌋ from its bits, in two factors so that both stay normal.
+                let k = b.floor().clamp(-252.0, 254.0) as i32;
+                let (k1, k2) = (k / 2, k - k / 2);
+                let p = |k: i32| f32::from_bits(((k + 127) as u32) << 23);
+                *a * p(k1) * p(k2)
+            };
+        }
+        Self::load(&a)
+    }
     /// [`ldexp`](fn@super::ldexp): `self · 2^e` rounded once, saturating.
     #[inline(always)]
     fn scale2(self, e: Self) -> Self {
@@ -427,6 +461,16 @@ impl_lane_wide! { lane_x8, f32x8, i32x8, 8, {
     fn scale2(self, e: Self) -> Self {
         super::avx512::x8::scalef(self, e)
     }
+    #[cfg(all(target_feature = "avx512f", target_feature = "avx512vl"))]
+    #[inline(always)]
+    fn lookup16(self, table: &[f32; 16]) -> Self {
+        super::avx512::x8::lookup16(self, table)
+    }
+    #[cfg(all(target_feature = "avx512f", target_feature = "avx512vl"))]
+    #[inline(always)]
+    fn scale2_floor_or_zero(self, e: Self, y: Self, lo: f32) -> Self {
+        super::avx512::x8::scalef_or_zero(self, e, y, lo)
+    }
 } }
 impl_lane_wide! { lane_x16, f32x16, i32x16, 16, {
     #[cfg(target_feature = "avx512f")]
@@ -445,6 +489,16 @@ impl_lane_wide! { lane_x16, f32x16, i32x16, 16, {
     #[inline(always)]
     fn scale2(self, e: Self) -> Self {
         super::avx512::x16::scalef(self, e)
+    }
+    #[cfg(target_feature = "avx512f")]
+    #[inline(always)]
+    fn lookup16(self, table: &[f32; 16]) -> Self {
+        super::avx512::x16::lookup16(self, table)
+    }
+    #[cfg(target_feature = "avx512f")]
+    #[inline(always)]
+    fn scale2_floor_or_zero(self, e: Self, y: Self, lo: f32) -> Self {
+        super::avx512::x16::scalef_or_zero(self, e, y, lo)
     }
 } }
 
@@ -484,7 +538,8 @@ mod avx512 {
 
     macro_rules! width {
         ($name:ident, $F:ty, $R:ty, $getexp:ident, $getmant:ident, $scalef:ident,
-         $rsqrt14:ident $(, $cfg:meta)?) => {
+         $rsqrt14:ident, $maskz_scalef:ident, $cmp_mask:ident, $set1:ident,
+         $lookup:expr $(, $cfg:meta)?) => {
             $(#[$cfg])?
             pub(super) mod $name {
                 use super::*;
@@ -530,6 +585,27 @@ mod avx512 {
                     unsafe { $scalef(x.into(), e.into()) }.into()
                 }
 
+                /// `Lane::lookup16`: one `vpermps` (16 lanes) or `vpermt2ps` (8 lanes,
+                /// the table in two registers).
+                #[inline(always)]
+                pub(crate) fn lookup16(x: F, table: &[f32; 16]) -> F {
+                    let a: $R = x.into();
+                    // SAFETY: see the module documentation (`table` holds 16 values).
+                    unsafe { ($lookup)(a, table) }.into()
+                }
+
+                /// `Lane::scale2_floor_or_zero`: `vscalefps` with a zeroing mask
+                /// (`vcmpps` into a mask register, not-less-than: NaN kept).
+                #[inline(always)]
+                pub(crate) fn scalef_or_zero(x: F, e: F, y: F, lo: f32) -> F {
+                    // SAFETY: see the module documentation.
+                    unsafe {
+                        let keep = $cmp_mask::<_CMP_NLT_UQ>(y.into(), $set1(lo));
+                        $maskz_scalef(keep, x.into(), e.into())
+                    }
+                    .into()
+                }
+
                 /// AVX-512's estimate of 1/√x (`vrsqrt14ps`, relative error below
                 /// 2⁻¹⁴; not a `Lane` method: its bits are not `vrsqrtps`').
                 #[inline(always)]
@@ -548,7 +624,14 @@ mod avx512 {
         _mm512_getexp_ps,
         _mm512_getmant_ps,
         _mm512_scalef_ps,
-        _mm512_rsqrt14_ps
+        _mm512_rsqrt14_ps,
+        _mm512_maskz_scalef_ps,
+        _mm512_cmp_ps_mask,
+        _mm512_set1_ps,
+        |a: __m512, t: &[f32; 16]| _mm512_permutexvar_ps(
+            _mm512_castps_si512(a),
+            _mm512_loadu_ps(t.as_ptr())
+        )
     );
     width!(
         x8,
@@ -558,6 +641,14 @@ mod avx512 {
         _mm256_getmant_ps,
         _mm256_scalef_ps,
         _mm256_rsqrt14_ps,
+        _mm256_maskz_scalef_ps,
+        _mm256_cmp_ps_mask,
+        _mm256_set1_ps,
+        |a: __m256, t: &[f32; 16]| _mm256_permutex2var_ps(
+            _mm256_loadu_ps(t.as_ptr()),
+            _mm256_castps_si256(a),
+            _mm256_loadu_ps(t.as_ptr().add(8))
+        ),
         cfg(target_feature = "avx512vl")
     );
 }

@@ -296,6 +296,17 @@ impl Lane for Zmm {
     fn scale2(self, e: Self) -> Self {
         Zmm(unsafe { _mm512_scalef_ps(self.0, e.0) })
     }
+    #[inline(always)]
+    fn lookup16(self, table: &[f32; 16]) -> Self {
+        Zmm(unsafe { _mm512_permutexvar_ps(self.bits(), _mm512_loadu_ps(table.as_ptr())) })
+    }
+    #[inline(always)]
+    fn scale2_floor_or_zero(self, e: Self, y: Self, lo: f32) -> Self {
+        Zmm(unsafe {
+            let keep = _mm512_cmp_ps_mask::<_CMP_NLT_UQ>(y.0, _mm512_set1_ps(lo));
+            _mm512_maskz_scalef_ps(keep, self.0, e.0)
+        })
+    }
 }
 
 /// `Zmm` against the scalar lane type, bit for bit (NaN payloads aside), on a CPU with
@@ -425,6 +436,7 @@ mod tests {
             ("exp_neg", one!(math::exp_neg)),
             ("expm1", one!(math::expm1)),
             ("exp2_nonpos", one!(math::exp2_nonpos)),
+            ("exp2_nonpos_table", one!(math::exp2_nonpos_table)),
             ("exp2m1", one!(math::exp2m1)),
             ("exprel_neg", one!(math::exprel_neg)),
             ("exp_neg_fast", one!(math::exp_neg_fast)),

@@ -1,0 +1,73 @@
+//! `exp2_nonpos_table(y) = 2^y` for `y ≤ 0`, the table-driven form of
+//! [`exp2_nonpos`](fn@super::exp2_nonpos) for lanes where a 16-entry table lookup and a
+//! masked scale by a power of two are one instruction each (AVX-512: `vpermps` or
+//! `vpermt2ps`, and `vscalefps` with a zeroing mask; other lane types take the same
+//! steps lane by lane, with the same bits, for the tests). The framebuffer pass's
+//! transmittance on such lanes.
+//!
+//! y = m/16 + r with m = round(16·y) and |r| ≤ 1/32: one add of 1.5·2^19 rounds y to a
+//! multiple of 1/16 and leaves m's low 4 bits, j = m mod 16, in the sum's low mantissa
+//! bits, which index the table of 2^(j/16) directly (`vpermps` reads those 4 bits);
+//! `vscalefps` multiplies by 2^⌊m/16⌋ (it takes the floor of its exponent operand, so
+//! m/16 itself serves). 2^r = 1 + r·P(r), P of degree 2, a Chebyshev fit on
+//! [−1/32, 1/32] (`tools/fit_poly.py`; max relative error with f32 coefficients 2.4e-9,
+//! 0.04 ULP). The result is 2^(j/16) + 2^(j/16)·(r·P(r)), one fused multiply-add, then
+//! scaled exactly. 11 operations against `exp2_nonpos`'s 14 (no degree-5 polynomial, no
+//! shift and multiply for 2^k, no lower clamp: the zeroing mask replaces it), and a
+//! shorter dependency chain.
+//!
+//! Results of y below −126 are flushed to +0 by the mask (an absolute error below
+//! 2^-126 = 1.2e-38 there), so the only subnormal results are those of y in
+//! [−126, −126 + 1/32), where m/16 = −126 and r < 0: `vscalefps` producing subnormals or
+//! underflowing to 0 for every y below −126 took the pass 3× as long (microcode assists,
+//! the Intel Xeon of the thirty-sixth session). y above −2^-60 is taken as −2^-60 (the
+//! result is 1 either way; r·P(r) stays normal). −inf gives 0, NaN gives NaN. No branch.
+//!
+//! Measured (`tests/exhaustive.rs`, every f32 ≤ 0, −inf included): see
+//! `EXP2_NONPOS_TABLE_MAX_ULP` there and the README's accuracy table.
+
+use super::Lane;
+
+/// 2^(j/16), j = 0 … 15, each rounded to nearest f32 (the shortest decimals that give
+/// those f32; a wrong digit in one entry showed as 1.94 ULP in the exhaustive sweep).
+const TABLE: [f32; 16] = [
+    1.0,
+    1.044_273_7,
+    1.090_507_7,
+    1.138_788_6,
+    1.189_207_1,
+    1.241_857_8,
+    1.296_839_6,
+    1.354_255_6,
+    1.414_213_5,
+    1.476_826_2,
+    1.542_210_8,
+    1.610_490_3,
+    1.681_792_9,
+    1.756_252_2,
+    1.834_008_1,
+    1.915_206_6,
+];
+
+/// 1.5 · 2^19: in [2^19, 2^20) the f32 spacing is 1/16.
+const ROUND16: f32 = 786_432.0;
+
+/// Results of y below this are flushed to +0.
+const FLUSH_BELOW: f32 = -126.0;
+
+/// `2^y` for `y ≤ 0` (including `−inf`, which gives 0); NaN for NaN.
+#[inline(always)]
+pub fn exp2_nonpos_table<L: Lane>(y: L) -> L {
+    // `minps`: NaN, the second operand, stays NaN.
+    let y = L::splat(-8.673_617e-19).min(y); // −2^-60
+    let t = y + L::splat(ROUND16);
+    let m16 = t - L::splat(ROUND16);
+    let r = y - m16;
+    let tab = t.lookup16(&TABLE);
+    let p = r
+        .mul_add(L::splat(0.055_505_086), L::splat(0.240_233_56))
+        .mul_add(r, L::splat(core::f32::consts::LN_2));
+    let q = p * r;
+    q.mul_add(tab, tab)
+        .scale2_floor_or_zero(m16, y, FLUSH_BELOW)
+}
