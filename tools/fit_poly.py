@@ -46,3 +46,11 @@ worst = max(abs((1 + f * mp.polyval(c5, f)) / mp.power(2, f) - 1)
             for f in (mp.mpf(i) / 4000 - mp.mpf(1) / 2 for i in range(4001)))
 print(f"    1 + f P(f) against 2^f: max rel err {float(worst):.3e}")
 fit("exp2 P (exp2m1)", P2, -0.5, 0.5, 6)
+
+# exp2_nonpos_table: 2^r = 1 + r P(r), r in [-1/32, 1/32] (y less its nearest multiple of
+# 1/16); the table of 2^(j/16) takes the rest. 2.4e-9 for degree 2 (0.04 ULP).
+c2 = fit("exp2 P (exp2_nonpos_table)", P2, -mp.mpf(1) / 32, mp.mpf(1) / 32, 2)
+worst = max(abs((1 + r * mp.polyval(c2, r)) / mp.power(2, r) - 1)
+            for r in (mp.mpf(i) / 64000 - mp.mpf(1) / 32 for i in range(4001)))
+print(f"    1 + r P(r) against 2^r: max rel err {float(worst):.3e}")
+print("    table 2^(j/16), j = 0..15:", [f32(mp.power(2, mp.mpf(j) / 16)) for j in range(16)])
