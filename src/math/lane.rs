@@ -517,10 +517,26 @@ pub(crate) fn rsqrt14_x8(x: f32x8) -> f32x8 {
     avx512::x8::rsqrt14(x)
 }
 
+/// AVX-512's estimate of 1/x (`vrcp14ps`) on 16 lanes, in builds with AVX-512F: the
+/// framebuffer pass refines it into its one quotient (`pass::height::PassLane::quotient`).
+#[cfg(target_feature = "avx512f")]
+#[inline(always)]
+pub(crate) fn rcp14_x16(x: f32x16) -> f32x16 {
+    avx512::x16::rcp14(x)
+}
+
+/// [`rcp14_x16`] on 8 lanes (AVX-512VL).
+#[cfg(all(target_feature = "avx512f", target_feature = "avx512vl"))]
+#[inline(always)]
+pub(crate) fn rcp14_x8(x: f32x8) -> f32x8 {
+    avx512::x8::rcp14(x)
+}
+
 /// AVX-512 forms of two `Lane` methods: `frexp` by `vgetexpps`/`vgetmantps` (9
 /// instructions with the fix-ups for 0, ±inf and NaN, against about 12), `scale2` (ldexp)
-/// by `vscalefps` (1, against 11); and AVX-512's reciprocal square root estimate for the
-/// framebuffer pass (`rsqrt14_x16`, `rsqrt14_x8`: other bits than `vrsqrtps`). The two
+/// by `vscalefps` (1, against 11); and AVX-512's estimates of 1/√x and 1/x for the
+/// framebuffer pass (`rsqrt14_x16`, `rsqrt14_x8`: other bits than `vrsqrtps`; `rcp14_x16`,
+/// `rcp14_x8`, which the pass refines into a quotient). The two
 /// `Lane` methods give the same results as the generic forms (NaN payloads aside) within
 /// their preconditions:
 /// both are exact or round once, and the fix-ups give the generic `frexp`'s values for
@@ -538,7 +554,7 @@ mod avx512 {
 
     macro_rules! width {
         ($name:ident, $F:ty, $R:ty, $getexp:ident, $getmant:ident, $scalef:ident,
-         $rsqrt14:ident, $maskz_scalef:ident, $cmp_mask:ident, $set1:ident,
+         $rsqrt14:ident, $rcp14:ident, $maskz_scalef:ident, $cmp_mask:ident, $set1:ident,
          $lookup:expr $(, $cfg:meta)?) => {
             $(#[$cfg])?
             pub(super) mod $name {
@@ -613,6 +629,14 @@ mod avx512 {
                     // SAFETY: see the module documentation.
                     unsafe { $rsqrt14(x.into()) }.into()
                 }
+
+                /// AVX-512's estimate of 1/x (`vrcp14ps`, relative error below 2⁻¹⁴;
+                /// not a `Lane` method, like `rsqrt14`).
+                #[inline(always)]
+                pub(crate) fn rcp14(x: F) -> F {
+                    // SAFETY: see the module documentation.
+                    unsafe { $rcp14(x.into()) }.into()
+                }
             }
         };
     }
@@ -625,6 +649,7 @@ mod avx512 {
         _mm512_getmant_ps,
         _mm512_scalef_ps,
         _mm512_rsqrt14_ps,
+        _mm512_rcp14_ps,
         _mm512_maskz_scalef_ps,
         _mm512_cmp_ps_mask,
         _mm512_set1_ps,
@@ -641,6 +666,7 @@ mod avx512 {
         _mm256_getmant_ps,
         _mm256_scalef_ps,
         _mm256_rsqrt14_ps,
+        _mm256_rcp14_ps,
         _mm256_maskz_scalef_ps,
         _mm256_cmp_ps_mask,
         _mm256_set1_ps,

@@ -49,11 +49,11 @@ pub use expm1::expm1;
 pub use exprel::exprel_neg;
 pub use fast::{exp_neg_fast, exp_split_fast, exprel_neg_fast};
 pub use frexp::frexp;
-#[cfg(target_feature = "avx512f")]
-pub(crate) use lane::rsqrt14_x16;
-#[cfg(all(target_feature = "avx512f", target_feature = "avx512vl"))]
-pub(crate) use lane::rsqrt14_x8;
 pub use lane::Lane;
+#[cfg(target_feature = "avx512f")]
+pub(crate) use lane::{rcp14_x16, rsqrt14_x16};
+#[cfg(all(target_feature = "avx512f", target_feature = "avx512vl"))]
+pub(crate) use lane::{rcp14_x8, rsqrt14_x8};
 pub use ldexp::{ldexp, pow2_pair};
 pub use log::{log, log_scaled};
 pub use log1p::log1p;

@@ -11,8 +11,8 @@
 //! `frexp_finite` and `scale2` are the x86-64-v4 build's `vgetexpps`/`vgetmantps` and
 //! `vscalefps` forms, so a ray gives the same bits through `Zmm` as through `f32x8` and
 //! the scalar path (`tests/lanes16.rs` checks each method, the suites' bit-for-bit tests
-//! the kernels). One method is not in `Lane` and has other bits: [`Zmm::rsqrt14`], the
-//! estimate the framebuffer pass refines. Masks are AVX-512 mask registers (`__mmask16`).
+//! the kernels). Two methods are not in `Lane` and have other bits: [`Zmm::rsqrt14`] and
+//! [`Zmm::rcp14`], the estimates the framebuffer pass refines. Masks are AVX-512 mask registers (`__mmask16`).
 //!
 //! # Safety
 //! Every method calls AVX-512F intrinsics. A `Zmm` value must therefore exist only on a
@@ -132,6 +132,13 @@ impl Zmm {
     #[inline(always)]
     pub(crate) fn rsqrt14(self) -> Zmm {
         Zmm(unsafe { _mm512_rsqrt14_ps(self.0) })
+    }
+
+    /// AVX-512's estimate of 1/x (`vrcp14ps`, relative error below 2⁻¹⁴), which the
+    /// framebuffer pass refines into a quotient (`PassLane::quotient`).
+    #[inline(always)]
+    pub(crate) fn rcp14(self) -> Zmm {
+        Zmm(unsafe { _mm512_rcp14_ps(self.0) })
     }
 
     /// Lanes 8h to 8h + 7 (`h` is 0 or 1).
