@@ -12,7 +12,8 @@
 //! `vscalefps` forms, so a ray gives the same bits through `Zmm` as through `f32x8` and
 //! the scalar path (`tests/lanes16.rs` checks each method, the suites' bit-for-bit tests
 //! the kernels). Two methods are not in `Lane` and have other bits: [`Zmm::rsqrt14`] and
-//! [`Zmm::rcp14`], the estimates the framebuffer pass refines. Masks are AVX-512 mask registers (`__mmask16`).
+//! [`Zmm::rcp14`], the estimates the framebuffer pass refines. Masks are AVX-512 mask
+//! registers (`__mmask16`).
 //!
 //! # Safety
 //! Every method calls AVX-512F intrinsics. A `Zmm` value must therefore exist only on a
