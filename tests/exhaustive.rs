@@ -28,6 +28,9 @@ const EXP_NEG_MAX_ULP: f64 = 0.95;
 const EXPREL_NEG_MAX_ULP: f64 = 1.73;
 const EXP2_NONPOS_MAX_ULP: f64 = 1.09;
 const EXP2_NONPOS_TABLE_MAX_ULP: f64 = 0.993;
+/// Sampled (2^22 products; max 0.9945 measured): r comes from the exact product, so it
+/// takes values between the f32 grid's and the maximum sits a little above the sweep's.
+const EXP2_NONPOS_TABLE_MUL_MAX_ULP: f64 = 1.0;
 const EXP2M1_MAX_ULP: f64 = 1.69;
 /// `exp_split`'s `m · 2^k` (not rounded into the f32 range), for x in [-104, 89].
 const EXP_SPLIT_MAX_ULP: f64 = 0.96;
@@ -483,6 +486,94 @@ fn exp2_nonpos_table_exhaustive() {
         EXP2_NONPOS_TABLE_MAX_ULP,
     );
     assert_eq!(n, (-126f32).to_bits() as u64 - 0x8000_0000 + 2);
+}
+
+/// `exp2_nonpos_table_mul(k, g)` = 2^(k·g), the pass's AVX-512 transmittance with the
+/// product fused into the reduction (not ignored: sampled). With g = 1 it must give
+/// `exp2_nonpos_table`'s bits on every 4099th f32 in [−126, −2⁻⁶⁰]; on pseudo-random
+/// pairs (k ≤ 0, g ≥ 0, products down to −140) it must stay within 1 ULP of the f64
+/// value of the exact product (normal results) and an absolute error
+/// below 2⁻¹²⁶ below, with 8 lanes equal to scalar bit for bit.
+#[test]
+fn exp2_nonpos_table_mul_products() {
+    let one = f32x8::splat(1.0);
+    let mut same = 0u64;
+    for bits in (0x8000_0000u32..=(-126f32).to_bits()).step_by(4099) {
+        let y = f32::from_bits(bits);
+        if y > -8.673_617e-19 {
+            continue;
+        }
+        let a = math::exp2_nonpos_table_mul(y, 1.0);
+        let b = math::exp2_nonpos_table(y);
+        assert_eq!(a.to_bits(), b.to_bits(), "y = {y:e}: {a:e} against {b:e}");
+        let v = math::exp2_nonpos_table_mul(f32x8::splat(y), one).to_array()[3];
+        assert_eq!(v.to_bits(), a.to_bits(), "8 lanes, y = {y:e}");
+        same += 1;
+    }
+    assert!(same > 130_000, "{same} values compared");
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1);
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let (mut worst, mut at) = (0.0f64, (0.0f32, 0.0f32));
+    let mut worst_abs = 0.0f64;
+    for _ in 0..1 << 19 {
+        let mut k = [0.0f32; 8];
+        let mut g = [0.0f32; 8];
+        for l in 0..8 {
+            // |k| over 40 binades, the product's magnitude up to 140.
+            let e = next() * 40.0 - 30.0;
+            k[l] = -(2f32.powf(e) * (1.0 + next()));
+            g[l] = next() * 140.0 / -k[l] * next();
+        }
+        let v = math::exp2_nonpos_table_mul(f32x8::new(k), f32x8::new(g)).to_array();
+        for l in 0..8 {
+            let s = math::exp2_nonpos_table_mul(k[l], g[l]);
+            assert_eq!(
+                v[l].to_bits(),
+                s.to_bits(),
+                "8 lanes, k = {:e}, g = {:e}",
+                k[l],
+                g[l]
+            );
+            let r = (f64::from(k[l]) * f64::from(g[l])).exp2();
+            if r >= f64::from(f32::MIN_POSITIVE) {
+                let e = ulp_err(s, r);
+                if e > worst {
+                    (worst, at) = (e, (k[l], g[l]));
+                }
+            } else {
+                worst_abs = worst_abs.max((f64::from(s) - r).abs() / f64::from(f32::MIN_POSITIVE));
+            }
+        }
+    }
+    println!(
+        "math::exp2_nonpos_table_mul, 2^22 products: max {worst:.4} ULP at k = {:e}, g = {:e}; \
+         below 2^-126 max |error| {worst_abs:.4} * 2^-126",
+        at.0, at.1
+    );
+    assert!(
+        worst <= EXP2_NONPOS_TABLE_MUL_MAX_ULP,
+        "{worst} ULP at k = {:e}, g = {:e}",
+        at.0,
+        at.1
+    );
+    assert!(worst_abs < 1.0, "absolute error {worst_abs} * 2^-126");
+    for (k, g) in [
+        (f32::NEG_INFINITY, 1.0),
+        (-1.0, f32::INFINITY),
+        (-0.0, 5.0),
+        (-3.0, 0.0),
+    ] {
+        let t = math::exp2_nonpos_table_mul(k, g);
+        let want = if k * g == 0.0 { 1.0 } else { 0.0 };
+        assert_eq!(t, want, "2^({k:e}·{g:e})");
+    }
+    assert!(math::exp2_nonpos_table_mul(f32::NAN, 1.0).is_nan());
+    assert!(math::exp2_nonpos_table_mul(-1.0, f32::NAN).is_nan());
 }
 
 // ---------------------------------------------------------------------------------------

@@ -71,3 +71,36 @@ pub fn exp2_nonpos_table<L: Lane>(y: L) -> L {
     q.mul_add(tab, tab)
         .scale2_floor_or_zero(m16, y, FLUSH_BELOW)
 }
+
+/// `2^(k·g)` for `k·g ≤ 0`, the product fused into the reduction: the framebuffer pass's
+/// transmittance T = 2^(k2·g') on AVX-512 lanes. m = round(16·k·g) from one FMA with
+/// 1.5·2^19 and −r = m/16 − k·g from another, both of the exact product, so the only
+/// rounding before the polynomial is that of r itself (relative 2⁻²⁴). The product is
+/// never rounded, which [`exp2_nonpos_table`]`(k·g)` pays with up to |k·g|·ln2/2 ULP
+/// more; and the multiply and the upper clamp are gone (9 operations and the compare
+/// against 12). r is carried negated so that no negation is needed: 2^r = 1 − r'·P(−r'),
+/// P's odd coefficient negated; with g = 1 and k in [−126, −2⁻⁶⁰] the bits are
+/// `exp2_nonpos_table`'s.
+///
+/// Precondition: k·g ≤ 0 or NaN (the pass: k2 ≤ 0, g' ≥ 0; a positive product gives a
+/// wrong value, never a panic). The mask tests m/16, not the product: results for k·g
+/// below −126 − 1/32 (m/16 < −126) are flushed to +0, an absolute error below 2^-126;
+/// those of k·g in [−126 − 1/32, −126) are subnormal, the only ones. −inf gives 0, NaN
+/// gives NaN. Measured by `tests/exhaustive.rs` (`exp2_nonpos_table_mul_products`): the
+/// bits of `exp2_nonpos_table` for g = 1 on every 4099th f32 in [−126, −2⁻⁶⁰], and 2²²
+/// pseudo-random products against f64's 2^(k·g) of the exact product: max 0.9945 ULP
+/// (bound 1.0) for normal results, below 0.98·2⁻¹²⁶ absolute under them.
+#[inline(always)]
+pub fn exp2_nonpos_table_mul<L: Lane>(k: L, g: L) -> L {
+    let t = k.mul_add(g, L::splat(ROUND16));
+    let m16 = t - L::splat(ROUND16);
+    // r' = m/16 − k·g = −r.
+    let rn = k.neg_mul_add(g, m16);
+    let tab = t.lookup16(&TABLE);
+    let p = rn
+        .mul_add(L::splat(0.055_505_086), L::splat(-0.240_233_56))
+        .mul_add(rn, L::splat(core::f32::consts::LN_2));
+    let q = p * rn;
+    q.neg_mul_add(tab, tab)
+        .scale2_floor_or_zero(m16, m16, FLUSH_BELOW)
+}

@@ -42,7 +42,7 @@ pub use asinh::asinh;
 pub use erf::{erf, erfc};
 pub use exp::{exp, exp_split};
 pub use exp2_nonpos::exp2_nonpos;
-pub use exp2_nonpos_table::exp2_nonpos_table;
+pub use exp2_nonpos_table::{exp2_nonpos_table, exp2_nonpos_table_mul};
 pub use exp2m1::exp2m1;
 pub use exp_neg::exp_neg;
 pub use expm1::expm1;

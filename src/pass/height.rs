@@ -43,17 +43,18 @@
 //!
 //! Error: K_c·log2(e)² one rounding (from f64), n two, t (the same f32 ray as the batch
 //! API's) none, y' three (relative, amplified by |Δ| in E: the problem's condition),
-//! exp2m1 ≤ 1.69 ULP and the division, three products: τ within about 9 + 4·|Δ| ULP,
-//! inside the crate's bound 16·2⁻²⁴·(1 + |b·(y₀ − h0)| + |Δ|) (here y₀'s term is resolved
-//! in f64); T adds the rounding of K·g (τ·2⁻²³ relative, what the bound on τ allows) and
-//! `exp2_nonpos`'s 1.09 ULP (`exp2_nonpos_table`'s 0.99 on AVX-512 lanes).
+//! exp2m1 ≤ 1.69 ULP and the division (0.563 ULP on AVX-512 lanes), three products: τ
+//! within about 9 + 4·|Δ| ULP, inside the crate's bound 16·2⁻²⁴·(1 + |b·(y₀ − h0)| + |Δ|)
+//! (here y₀'s term is resolved in f64); T adds the rounding of K·g (τ·2⁻²³ relative, what
+//! the bound on τ allows; none on AVX-512 lanes, where `exp2_nonpos_table_mul` takes the
+//! exact product) and `exp2_nonpos`'s 1.09 ULP (`exp2_nonpos_table_mul`'s 1.0 there).
 //! `tests/pass.rs` checks every pixel of random frames against the batch API.
 
 use super::camera::{DepthPlan, FramePlan, RowPlan};
 use super::RowColour;
 use crate::kernel::Single;
 use crate::light::Phase;
-use crate::math::{exp2_nonpos, exp2_nonpos_table, exp2m1, exp_neg_fast, Lane};
+use crate::math::{exp2_nonpos, exp2_nonpos_table_mul, exp2m1, exp_neg_fast, Lane};
 use crate::medium::volume::clamp_colour;
 use crate::scene::{Scene, UpAxis};
 use crate::Tier;
@@ -198,14 +199,15 @@ pub(crate) trait PassLane: Lane {
     fn lane_x() -> Self;
     /// `vrsqrtps` on each 8 lanes, or AVX-512's `vrsqrt14ps` where the lanes are AVX-512.
     fn rsqrt_estimate(self) -> Self;
-    /// 2^y for y ≤ 0, the transmittance: [`exp2_nonpos_table`] where the lanes are
-    /// AVX-512's (its lookup and masked scale one instruction each; the in-cache frame
-    /// about 1.15× as fast, median of eight alternating pairs, on the Intel Xeon of the
-    /// thirty-sixth session: README "Speed of the pass"),
-    /// [`exp2_nonpos`] elsewhere. Other last bits, like the estimate of 1/√x.
+    /// 2^(k·g) for k·g ≤ 0, the transmittance: [`exp2_nonpos_table_mul`] where the lanes
+    /// are AVX-512's (its lookup and masked scale one instruction each, the product fused
+    /// into its reduction; the table form made the in-cache frame about 1.15× as fast,
+    /// median of eight alternating pairs, on the Intel Xeon of the thirty-sixth session:
+    /// README "Speed of the pass"), [`exp2_nonpos`] of the rounded product elsewhere.
+    /// Other last bits, like the estimate of 1/√x.
     #[inline(always)]
-    fn exp2_nonpos(self) -> Self {
-        exp2_nonpos(self)
+    fn exp2_nonpos_mul(k: Self, g: Self) -> Self {
+        exp2_nonpos(k * g)
     }
     /// num / den, the pass's one quotient exp2m1(y')/y': a division, or where the lanes
     /// are AVX-512's the estimate `vrcp14ps` refined by [`refined_quotient`] (off the
@@ -241,8 +243,8 @@ impl PassLane for f32x8 {
     }
     #[cfg(all(target_feature = "avx512f", target_feature = "avx512vl"))]
     #[inline(always)]
-    fn exp2_nonpos(self) -> Self {
-        exp2_nonpos_table(self)
+    fn exp2_nonpos_mul(k: Self, g: Self) -> Self {
+        exp2_nonpos_table_mul(k, g)
     }
     #[cfg(all(target_feature = "avx512f", target_feature = "avx512vl"))]
     #[inline(always)]
@@ -288,8 +290,8 @@ impl PassLane for f32x16 {
     }
     #[cfg(target_feature = "avx512f")]
     #[inline(always)]
-    fn exp2_nonpos(self) -> Self {
-        exp2_nonpos_table(self)
+    fn exp2_nonpos_mul(k: Self, g: Self) -> Self {
+        exp2_nonpos_table_mul(k, g)
     }
     #[cfg(target_feature = "avx512f")]
     #[inline(always)]
@@ -338,8 +340,8 @@ impl PassLane for crate::math::zmm::Zmm {
         self.rsqrt14()
     }
     #[inline(always)]
-    fn exp2_nonpos(self) -> Self {
-        exp2_nonpos_table(self)
+    fn exp2_nonpos_mul(k: Self, g: Self) -> Self {
+        exp2_nonpos_table_mul(k, g)
     }
     #[inline(always)]
     fn quotient(num: Self, den: Self) -> Self {
@@ -748,11 +750,11 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     // the AVX-512 entry point `zmm::rows_zmm`, and may stay out of line there.)
     let kk = if FAST { hp.k } else { hp.k2 };
     #[inline(always)]
-    fn trans<W: PassLane, const FAST: bool>(kg: W) -> W {
+    fn trans<W: PassLane, const FAST: bool>(k: W, g: W) -> W {
         if FAST {
-            exp_neg_fast(kg)
+            exp_neg_fast(k * g)
         } else {
-            kg.exp2_nonpos()
+            W::exp2_nonpos_mul(k, g)
         }
     }
     let trans = trans::<W, FAST>;
@@ -844,12 +846,12 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
         let n = if k + 1 == m { last_n } else { n_lanes };
         if rgb3 && full_block {
             let t = if GREY {
-                trans(W::splat(kk[0]) * g).expand3()
+                trans(W::splat(kk[0]), g).expand3()
             } else {
                 [
-                    trans(k3[0] * g3[0]),
-                    trans(k3[1] * g3[1]),
-                    trans(k3[2] * g3[2]),
+                    trans(k3[0], g3[0]),
+                    trans(k3[1], g3[1]),
+                    trans(k3[2], g3[2]),
                 ]
             };
             let mut insc = [zero; 3];
@@ -864,12 +866,12 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
             out.fog_rgb3(x0, t, insc);
         } else {
             let trans = if GREY {
-                [trans(W::splat(kk[0]) * g); 3]
+                [trans(W::splat(kk[0]), g); 3]
             } else {
                 [
-                    trans(W::splat(kk[0]) * g),
-                    trans(W::splat(kk[1]) * g),
-                    trans(W::splat(kk[2]) * g),
+                    trans(W::splat(kk[0]), g),
+                    trans(W::splat(kk[1]), g),
+                    trans(W::splat(kk[2]), g),
                 ]
             };
             // (Written out, no closures: see `trans`.)
