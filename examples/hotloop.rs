@@ -3,7 +3,8 @@
 //! and for timing (`REPS=200`: the best of 200 passes, as the C peer reports). Then prints
 //! the accuracy the way the peer measures its own: max |T − T_f64| against the same closed
 //! form in f64 (which takes |d| = 1; `general`'s directions are unit to rounding).
-//! `CHUNK=k` evaluates the 65536 rays as calls of k rays each (the fixed cost per call).
+//! `CHUNK=k` evaluates the 65536 rays as calls of k rays each (the fixed cost per call);
+//! `N=n` evaluates n rays instead of 65536 (`N=16777216`: the streaming bench's size).
 use analytic_fog::reference::peer::{PeerRays, BETA, FALLOFF};
 use analytic_fog::{
     Component, HeightFogLayer, Lighting, Outputs, Phase, Rays, Scene, SceneDesc, Sun,
@@ -14,7 +15,12 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let mode = args.get(1).map(String::as_str).unwrap_or("unit");
     let extreme = args.get(2).map(String::as_str) == Some("extreme");
-    let n = 65536;
+    // `N=n`: another batch size (default 65536, in cache; 16777216 streams from memory).
+    let n: usize = std::env::var("N")
+        .ok()
+        .and_then(|r| r.parse().ok())
+        .unwrap_or(65536)
+        .max(1);
     let peer = PeerRays::new(n, extreme);
     let (oy, dy, t, dx) = (&peer.oy, &peer.dy, &peer.t, peer.dx());
     let z = vec![0.0f32; n];
