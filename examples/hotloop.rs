@@ -5,6 +5,7 @@
 //! form in f64 (which takes |d| = 1; `general`'s directions are unit to rounding).
 //! `CHUNK=k` evaluates the 65536 rays as calls of k rays each (the fixed cost per call);
 //! `N=n` evaluates n rays instead of 65536 (`N=16777216`: the streaming bench's size).
+//! `NO512=1` takes the 8-lane path on a CPU with AVX-512 (`Scene::without_avx512_dispatch`).
 use analytic_fog::reference::peer::{PeerRays, BETA, FALLOFF};
 use analytic_fog::{
     Component, HeightFogLayer, Lighting, Outputs, Phase, Rays, Scene, SceneDesc, Sun,
@@ -50,6 +51,12 @@ fn main() {
         ..SceneDesc::default()
     })
     .unwrap();
+    // `NO512=1`: the 8-lane path where the CPU has AVX-512 (the dispatch turned off).
+    let scene = if std::env::var_os("NO512").is_some() {
+        scene.without_avx512_dispatch()
+    } else {
+        scene
+    };
     let rays = Rays::new(&z, oy, &z, &dx, dy, &z, t)
         .unwrap()
         .with_unit_directions(mode != "general");

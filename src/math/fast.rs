@@ -1,5 +1,5 @@
-//! The Fast tier's exponentials: the same reductions and reconstructions as `exp_neg`,
-//! `exp_split` and `exprel_neg`, with the degree-4/5 polynomial `Q` replaced by one of
+//! The Fast tier's exponentials: the same reductions and reconstructions as `exp_split`
+//! and `exprel_neg` (and as `exp_neg` before its table form), with the degree-4/5 polynomial `Q` replaced by one of
 //! degree 2 (shared by all three) and, where the reduced argument allows it, a one-term
 //! Cody–Waite reduction.
 //!
@@ -10,8 +10,8 @@
 //! Measured (`tests/exhaustive.rs`, `fast_tier_exhaustive`, every f32 of the domain
 //! against f64, relative error; x8 and scalar bit-identical):
 //! - `exp_neg_fast(x)`, x ≥ 0: 1.422e-5 (at x = 82.83) for results ≥ 2^-126 (x ≤ 87.33),
-//!   then flushed to 0 as `exp_neg` does (1.424e-5 with the `(w²)·Q − w + 1` form it had
-//!   before `exp_neg`'s change);
+//!   then flushed to 0 as `exp_neg` flushes (1.424e-5 with the `(w²)·Q − w + 1` form it
+//!   had before an earlier change of `exp_neg`);
 //! - `exp_split_fast(x)` = m·2^k: 1.403e-5 on [−708, 709] (m·2^k against e^x in f64);
 //! - `exprel_neg_fast(x)` = (1 − e^(−x))/x: 3.376e-5 (at x = 0.3466) on [2^-60, 2^11].
 //!
@@ -42,7 +42,8 @@ pub fn exp_neg_fast<L: Lane>(x: L) -> L {
     let x = L::splat(88.0).min(x);
     let (k, s) = (x * L::splat(-LOG2E)).round_pow2i();
     let w = k.mul_add(L::splat(LN2), x);
-    // 1 + w·(w·Q(−w) − 1), as in `exp_neg`: no subnormal w² for tiny w.
+    // 1 + w·(w·Q(−w) − 1), as `exp_neg` had it before its table form: no subnormal w²
+    // for tiny w.
     let p = w.mul_add(w.mul_sub(q2_signed(w, -1.0), L::splat(1.0)), L::splat(1.0));
     p * s
 }

@@ -13,6 +13,10 @@
 use core::ops::{Add, BitAnd, BitOr, Div, Mul, Not, Sub};
 use wide::{f32x16, f32x8, i32x16, i32x8};
 
+/// The bits of 1.5·2^20 less 127·8: `Lane::pow2_floor_round8` subtracts it from the
+/// sum's bits, which leaves m + 1016 = 8·(⌊m/8⌋ + 127) + (m mod 8).
+pub(super) const POW2_ROUND8_BIAS: u32 = 0x49c0_0000 - 127 * 8;
+
 /// A vector of `f32` lanes (1, 8 or 16) with the operations the kernels need.
 pub trait Lane:
     Copy
@@ -136,6 +140,24 @@ pub trait Lane:
         self.store(&mut a);
         for (r, a) in r.iter_mut().zip(&a).take(Self::LANES) {
             *r = table[(a.to_bits() & 15) as usize];
+        }
+        Self::load(&r)
+    }
+    /// `2^⌊m/8⌋` for `self = 1.5·2^20 + m/8`, `exp_neg`'s rounded sum (m an integer in
+    /// [−1016, 1023]): from the sum's bits, m's low 3 bits shifted out and the rest moved
+    /// into the exponent field with the bias: one subtract, one shift and one and; +0
+    /// for ⌊m/8⌋ = −127 (exponent field 0). With a multiply, cheaper than
+    /// [`Lane::scale2_floor_or_zero`] on lanes without [`Lane::NATIVE_SCALE`].
+    fn pow2_floor_round8(self) -> Self;
+    /// `table[i]` in each lane, with `i` the low 3 bits of that lane's bits; `table`
+    /// holds the 8 values twice, so that AVX-512's 16-lane `vpermps`, which reads 4
+    /// bits, takes it as it is (`vpermps` on AVX2 and AVX-512 lanes; here lane by lane).
+    #[inline(always)]
+    fn lookup8(self, table: &[f32; 16]) -> Self {
+        let (mut a, mut r) = ([0f32; 16], [0f32; 16]);
+        self.store(&mut a);
+        for (r, a) in r.iter_mut().zip(&a).take(Self::LANES) {
+            *r = table[(a.to_bits() & 7) as usize];
         }
         Self::load(&r)
     }
@@ -305,6 +327,10 @@ impl Lane for f32 {
         f32::from_bits(self.to_bits() << 23)
     }
     #[inline(always)]
+    fn pow2_floor_round8(self) -> Self {
+        f32::from_bits(self.to_bits().wrapping_sub(POW2_ROUND8_BIAS) << 20 & 0xff80_0000)
+    }
+    #[inline(always)]
     fn exponent_field(self) -> Self {
         ((self.to_bits() >> 23) & 0xff) as f32
     }
@@ -424,6 +450,11 @@ macro_rules! impl_lane_wide {
                     as_f(as_i(self) << 23)
                 }
                 #[inline(always)]
+                fn pow2_floor_round8(self) -> Self {
+                    let m = as_i(self) - <$I>::splat(POW2_ROUND8_BIAS as i32);
+                    as_f((m << 20) & <$I>::splat(0xff80_0000_u32 as i32))
+                }
+                #[inline(always)]
                 fn exponent_field(self) -> Self {
                     let field: $I = (as_i(self) >> 23) & <$I>::splat(0xff);
                     field.round_float()
@@ -471,6 +502,11 @@ impl_lane_wide! { lane_x8, f32x8, i32x8, 8, {
     fn scale2_floor_or_zero(self, e: Self, y: Self, lo: f32) -> Self {
         super::avx512::x8::scalef_or_zero(self, e, y, lo)
     }
+    #[cfg(target_feature = "avx2")]
+    #[inline(always)]
+    fn lookup8(self, table: &[f32; 16]) -> Self {
+        super::avx2::lookup8(self, table)
+    }
 } }
 impl_lane_wide! { lane_x16, f32x16, i32x16, 16, {
     #[cfg(target_feature = "avx512f")]
@@ -500,7 +536,38 @@ impl_lane_wide! { lane_x16, f32x16, i32x16, 16, {
     fn scale2_floor_or_zero(self, e: Self, y: Self, lo: f32) -> Self {
         super::avx512::x16::scalef_or_zero(self, e, y, lo)
     }
+    #[cfg(target_feature = "avx512f")]
+    #[inline(always)]
+    fn lookup8(self, table: &[f32; 16]) -> Self {
+        super::avx512::x16::lookup16(self, table)
+    }
+    // Without AVX-512F, wide's f32x16 is two f32x8: the AVX2 form on each half.
+    #[cfg(all(target_feature = "avx2", not(target_feature = "avx512f")))]
+    #[inline(always)]
+    fn lookup8(self, table: &[f32; 16]) -> Self {
+        let [a, b]: [f32x8; 2] = bytemuck::cast(self);
+        bytemuck::cast([a.lookup8(table), b.lookup8(table)])
+    }
 } }
+
+/// `Lane::lookup8` for f32x8 where the build has AVX2 (the x86-64-v3 build's 8-lane
+/// kernels; AVX-512VL builds too): one `vpermps`, which reads the low 3 bits of each
+/// index. Sound for the reason given at `mod avx512`: the module exists only where the
+/// build enables AVX2 for the whole crate.
+#[cfg(target_feature = "avx2")]
+#[allow(unsafe_code)]
+mod avx2 {
+    use core::arch::x86_64::*;
+    use wide::f32x8;
+
+    #[inline(always)]
+    pub(super) fn lookup8(x: f32x8, table: &[f32; 16]) -> f32x8 {
+        let a: __m256 = x.into();
+        // SAFETY: see the module documentation; `table` holds 16 values.
+        unsafe { _mm256_permutevar8x32_ps(_mm256_loadu_ps(table.as_ptr()), _mm256_castps_si256(a)) }
+            .into()
+    }
+}
 
 /// AVX-512's estimate of 1/√x (`vrsqrt14ps`) on 16 lanes, in builds with AVX-512F: the
 /// framebuffer pass's estimate there (`pass::height::PassLane`).

@@ -31,6 +31,7 @@
 // call and the `unsafe` blocks are redundant there.
 #![cfg_attr(zmm_native, allow(unused_unsafe))]
 
+use super::lane::POW2_ROUND8_BIAS;
 use super::Lane;
 use core::arch::x86_64::*;
 use core::ops::{Add, BitAnd, BitOr, Div, Mul, Not, Sub};
@@ -309,6 +310,21 @@ impl Lane for Zmm {
         Zmm(unsafe { _mm512_permutexvar_ps(self.bits(), _mm512_loadu_ps(table.as_ptr())) })
     }
     #[inline(always)]
+    fn lookup8(self, table: &[f32; 16]) -> Self {
+        // The table holds its 8 values twice: the 4-bit index of `vpermps` serves.
+        self.lookup16(table)
+    }
+    #[inline(always)]
+    fn pow2_floor_round8(self) -> Self {
+        Zmm::from_bits(unsafe {
+            let m = _mm512_sub_epi32(self.bits(), _mm512_set1_epi32(POW2_ROUND8_BIAS as i32));
+            _mm512_and_si512(
+                _mm512_slli_epi32::<20>(m),
+                _mm512_set1_epi32(0xff80_0000_u32 as i32),
+            )
+        })
+    }
+    #[inline(always)]
     fn scale2_floor_or_zero(self, e: Self, y: Self, lo: f32) -> Self {
         Zmm(unsafe {
             let keep = _mm512_cmp_ps_mask::<_CMP_NLT_UQ>(y.0, _mm512_set1_ps(lo));
@@ -319,7 +335,7 @@ impl Lane for Zmm {
 
 /// `Zmm` against the scalar lane type, bit for bit (NaN payloads aside), on a CPU with
 /// AVX-512 (the tests pass vacuously elsewhere, and say so): every special function over a
-/// sample of every 257th f32 bit pattern plus boundaries, as `tests/lanes16.rs` checks
+/// sample of every 257th f32 bit pattern plus boundaries and every f32 in [86, 89], as `tests/lanes16.rs` checks
 /// `wide::f32x16`, and each `Lane` method on random pairs.
 #[cfg(test)]
 mod tests {
@@ -371,6 +387,9 @@ mod tests {
         (0..u32::MAX / 257)
             .map(|k| f32::from_bits(0x9e37u32.wrapping_add(k * 257)))
             .chain(specials)
+            // Every f32 in [86, 89]: `exp_neg`'s flush boundary (x ≈ 87.34, where the
+            // masked scale here and the exponent bits of the scalar form must agree).
+            .chain((86.0f32.to_bits()..=89.0f32.to_bits()).map(f32::from_bits))
             .collect()
     }
 
