@@ -29,8 +29,12 @@
 //! one on Zen 1 when an earlier form let them through). +inf gives 0, NaN gives NaN. No
 //! branch on the data.
 //!
-//! Measured (`tests/exhaustive.rs`, every f32 ≥ 0, +inf included): see `EXP_NEG_MAX_ULP`
-//! there and the README's accuracy table.
+//! Measured (`tests/exhaustive.rs`, every f32 ≥ 0, +inf included; 8 lanes and scalar bit
+//! for bit): max error 0.6208 ULP (at x = 1.436804) for results ≥ 2^-126, 0.17 % of them
+//! over 0.5 ULP (the Cody–Waite form before: 0.943 ULP, 0.47 %); beyond, an absolute
+//! error of at most 0.958 · 2^-126. AVX-512 lanes against scalar, bit for bit: every
+//! 257th f32 (`Zmm` in the `math::zmm` tests, with every f32 in [86, 89] too; f32x16 in
+//! `tests/lanes16.rs`).
 
 use super::Lane;
 
