@@ -610,10 +610,9 @@ pub(crate) fn rcp14_x8(x: f32x8) -> f32x8 {
 /// 0, ±inf and NaN. `tests/lanes16.rs` and the kernels' bit-for-bit tests check it in the
 /// x86-64-v4 build (`.ci/run`).
 ///
-/// Its `unsafe` (as that of `mod avx2` below, `math::zmm` and the run-time dispatch in
-/// `kernel` and `pass::height`):
-/// calling an intrinsic needs it unless the caller is a `#[target_feature]` function,
-/// which a trait method cannot be. Sound because the module
+/// Its `unsafe` (as that of `mod avx2` above, `math::zmm` and the run-time dispatch in
+/// `kernel` and `pass::height`): calling an intrinsic needs it unless the caller is a
+/// `#[target_feature]` function, which a trait method cannot be. Sound because the module
 /// exists only where the build enables the features for the whole crate, so no code of
 /// the crate runs on a CPU without them.
 #[cfg(target_feature = "avx512f")]

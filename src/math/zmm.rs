@@ -335,8 +335,8 @@ impl Lane for Zmm {
 
 /// `Zmm` against the scalar lane type, bit for bit (NaN payloads aside), on a CPU with
 /// AVX-512 (the tests pass vacuously elsewhere, and say so): every special function over a
-/// sample of every 257th f32 bit pattern plus boundaries and every f32 in [86, 89], as `tests/lanes16.rs` checks
-/// `wide::f32x16`, and each `Lane` method on random pairs.
+/// sample of every 257th f32 bit pattern plus boundaries (as `tests/lanes16.rs` checks
+/// `wide::f32x16`) and every f32 in [86, 89], and each `Lane` method on random pairs.
 #[cfg(test)]
 mod tests {
     use super::*;
