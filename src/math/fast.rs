@@ -10,8 +10,8 @@
 //! Measured (`tests/exhaustive.rs`, `fast_tier_exhaustive`, every f32 of the domain
 //! against f64, relative error; x8 and scalar bit-identical):
 //! - `exp_neg_fast(x)`, x ≥ 0: 1.422e-5 (at x = 82.83) for results ≥ 2^-126 (x ≤ 87.33),
-//!   then flushed to 0 as `exp_neg` flushes (1.424e-5 with the `(w²)·Q − w + 1` form it
-//!   had before an earlier change of `exp_neg`);
+//!   then flushed to 0 (1.424e-5 with the `(w²)·Q − w + 1` form that `exp_neg` had
+//!   before an earlier change);
 //! - `exp_split_fast(x)` = m·2^k: 1.403e-5 on [−708, 709] (m·2^k against e^x in f64);
 //! - `exprel_neg_fast(x)` = (1 − e^(−x))/x: 3.376e-5 (at x = 0.3466) on [2^-60, 2^11].
 //!
