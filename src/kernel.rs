@@ -9,7 +9,7 @@
 //! at run time.
 
 use crate::light::PhaseEval;
-use crate::math::{exp_neg, exp_neg_fast, ldexp, pow2_pair, Lane};
+use crate::math::{exp_neg, exp_neg_fast, exp_neg_mul, ldexp, pow2_pair, ExpNegMul, Lane};
 use crate::medium::distance::DistancePlan;
 use crate::medium::height_fog::{
     depth_args_of, depth_args_tame, depth_args_tame_wide, depth_of, depth_phi, depth_with_of,
@@ -172,6 +172,10 @@ pub(crate) struct Single {
     pub(crate) tau_kind: u8,
     /// The layer's `shared_scale` where `tau_kind` is 1 (zeros otherwise).
     pub(crate) shared: (f32, [f32; 3]),
+    /// Where `tau_kind` < 2, T straight from the geometric depth (see [`depth_trans`]):
+    /// the exponent added to the depth's (e_σ grey, e_s shared) and each channel's
+    /// mantissa (m_σ, m_c) as an [`exp_neg_mul`] factor.
+    pub(crate) depth_scale: (f32, [ExpNegMul; 3]),
     pub(crate) up: [f32; 3],
     pub(crate) sun: Option<[f32; 3]>,
     /// The phase functions with their constants for the sun's direction (the first
@@ -208,6 +212,14 @@ impl Single {
                 2
             },
             shared: l.core.shared_scale.unwrap_or((0.0, [0.0; 3])),
+            depth_scale: {
+                let (e, m) = if grey {
+                    (l.core.sigma[0].e, [l.core.sigma[0].m; 3])
+                } else {
+                    l.core.shared_scale.unwrap_or((0.0, [0.0; 3]))
+                };
+                (e, m.map(|m| ExpNegMul::new(m).unwrap_or_default()))
+            },
             up: scene.up.to_array(),
             sun,
             lit,
@@ -244,7 +256,9 @@ pub(crate) fn eval_packet<
         _ => single_tau::<L, 2>(single, depth),
     };
     let trans = if WANT_T || WANT_L {
-        if single.grey {
+        if single.t_from_depth::<FAST>() {
+            depth_trans(single, shared_g(L::splat(single.depth_scale.0), depth))
+        } else if single.grey {
             [single_trans::<L, FAST>(tau[0]); 3]
         } else {
             tau.map(single_trans::<L, FAST>)
@@ -371,6 +385,39 @@ pub(crate) fn single_trans<L: Lane, const FAST: bool>(tau: L) -> L {
         exp_neg_fast(tau)
     } else {
         exp_neg(tau)
+    }
+}
+
+impl Single {
+    /// Whether stage 4 takes T straight from the geometric depth ([`depth_trans`])
+    /// instead of from τ: the accurate tier, for a grey layer or one whose channels
+    /// share a scale.
+    #[inline(always)]
+    pub(crate) fn t_from_depth<const FAST: bool>(&self) -> bool {
+        !FAST && self.tau_kind < 2
+    }
+}
+
+/// g = gm·2^e with e = ge + `es` clamped to [−64, 64] (see [`shared_depth`]), NaN where e
+/// is (e − e is 0 or NaN: the NaN carried in one FMA instead of a test per block).
+// (e − e is meant: it is not 0 for NaN.)
+#[allow(clippy::eq_op)]
+#[inline(always)]
+fn shared_g<L: Lane>(es: L, (gm, ge): (L, L)) -> L {
+    let e = ge + es;
+    gm.mul_add(L::pow2i(e.clamp(L::splat(-64.0), L::splat(64.0))), e - e)
+}
+
+/// Stage 4 where [`Single::t_from_depth`]: T_c = e^(−g·m_c) from g of [`shared_g`], the
+/// product taken exactly inside [`exp_neg_mul`] (no rounding of τ before T, and no
+/// multiply per channel). See [`shared_depth`] for why the clamp of e does not matter.
+#[inline(always)]
+pub(crate) fn depth_trans<L: Lane>(single: &Single, g: L) -> [L; 3] {
+    let k = single.depth_scale.1;
+    if single.grey {
+        [exp_neg_mul(g, k[0]); 3]
+    } else {
+        rgb!(ch => exp_neg_mul(g, k[ch]))
     }
 }
 
@@ -1054,13 +1101,20 @@ fn run_single<
         } else {
             depth_stages::<L, FAST>(kind, &args[..m], &mut phis, &mut depth);
         }
-        // T without τ, for a grey layer or three channels sharing one pair of scale
-        // factors: one loop forms τ from one value per packet (see `shared_depth`).
-        let shared_block = !L::NATIVE_SCALE
-            && single.tau_kind < 2
-            && o_tau.is_none()
-            && (WANT_T || WANT_L)
-            && shared_depth(single, &depth[..m], &mut gs);
+        // T from one value g per packet (see `shared_depth`), for a grey layer or three
+        // channels sharing one pair of scale factors: in the accurate tier straight
+        // from g (`depth_trans`, whether τ is stored or not); in the Fast tier, without
+        // the masked scale, from τ = g·m_c formed in the T loop where τ is not stored.
+        let from_depth = single.t_from_depth::<FAST>() && (WANT_T || WANT_L);
+        let shared_block = from_depth
+            || (FAST
+                && !L::NATIVE_SCALE
+                && single.tau_kind < 2
+                && o_tau.is_none()
+                && (WANT_T || WANT_L));
+        if shared_block {
+            shared_depth(single, &depth[..m], &mut gs);
+        }
         macro_rules! tau_loop {
             ($kind:literal) => {{
                 let pairs = taus[..m].iter_mut().zip(depth[..m].iter());
@@ -1077,7 +1131,7 @@ fn run_single<
                             x[1].store(b);
                             x[2].store(c);
                             // (Kept for the later stages only: τ alone is stored once.)
-                            if WANT_T || WANT_L {
+                            if (WANT_T || WANT_L) && !shared_block {
                                 *tau = x;
                             }
                         }
@@ -1090,7 +1144,7 @@ fn run_single<
                 }
             }};
         }
-        if !shared_block {
+        if !shared_block || o_tau.is_some() {
             match single.tau_kind {
                 0 => tau_loop!(0),
                 1 => tau_loop!(1),
@@ -1127,7 +1181,14 @@ fn run_single<
                 }
             }};
         }
-        if shared_block && single.grey {
+        if from_depth && single.grey {
+            // One exponential for the three channels.
+            let k = single.depth_scale.1[0];
+            shared_t_loop!(g => [exp_neg_mul(g, k); 3]);
+        } else if from_depth {
+            let k = single.depth_scale.1;
+            shared_t_loop!(g => rgb!(ch => exp_neg_mul(g, k[ch])));
+        } else if shared_block && single.grey {
             // One exponential for the three channels.
             let k = L::splat(single.layer.sigma[0].m);
             shared_t_loop!(g => [single_trans::<L, FAST>(g * k); 3]);
@@ -1235,43 +1296,39 @@ fn run_single<
     }
 }
 
-/// For a block whose τ is not stored, of a grey layer (`tau_kind` 0: σ = m_σ·2^e_σ) or
-/// one whose channels share a scale (`tau_kind` 1: σ_c = m_c·2^e_s): writes g = gm·2^e
-/// per packet, (gm, ge) being the geometric depth, e = ge + e_σ or ge + e_s clamped to
-/// [−64, 64], so that the T loop forms τ_c = g·m_c from one value per packet, where
-/// `single_tau` would store three (with the three channels in one loop, 6.36 → 5.88 ns
-/// per ray in `hotloop unit typical` on Zen 1). Returns false (the block takes
-/// `single_tau`) if some e is NaN.
+/// For a block of a grey layer (`tau_kind` 0: σ = m_σ·2^e_σ) or one whose channels share
+/// a scale (`tau_kind` 1: σ_c = m_c·2^e_s): writes g = gm·2^e per packet ([`shared_g`]),
+/// (gm, ge) being the geometric depth, e = ge + e_σ or ge + e_s clamped to [−64, 64], so
+/// that the T loop takes τ_c = g·m_c from one value per packet, where `single_tau` would
+/// store three (with the three channels in one loop, 6.36 → 5.88 ns per ray in `hotloop
+/// unit typical` on Zen 1).
 ///
-/// T has the same bits as from `single_tau`, since gm < 2^32, gm ≥ 2^-32 or gm = 0
-/// (m·φ·e^(−u_min) with φ ≥ 2^-11 and m in [1, 4), or the tame stage's G, in
-/// [2^-31.6, 2^31.6]: see `depth_args_tame` and `depth_args_tame_wide`), m_σ
-/// is in [1, 2) (`frexp`) and a non-zero m_c in [2^-16, 2) (`shared_scale`):
-/// - for |e| ≤ 64, `pow2_pair` gives s1 = 2^e and s2 = 1. Shared scale: `single_tau`'s
-///   τ_c = (gm·s1)·m_c·s2 is the same products of the same values. Grey: its
-///   τ = `ldexp`(gm·m_σ, e) = round(gm·m_σ)·2^e, and g·m_σ = round(gm·2^e·m_σ) is the
-///   same number, since every value here is normal (≥ 2^-96, ≤ 2^97), where scaling by
+/// Here gm < 2^32, gm ≥ 2^-32 or gm = 0 (m·φ·e^(−u_min) with φ ≥ 2^-11 and m in [1, 4),
+/// or the tame stage's G, in [2^-31.6, 2^31.6]: see `depth_args_tame` and
+/// `depth_args_tame_wide`), m_σ is in [1, 2) (`frexp`) and a non-zero m_c in [2^-16, 2)
+/// (`shared_scale`). So:
+/// - for |e| ≤ 64, g = gm·2^e exactly (normal: ≥ 2^-96, ≤ 2^96), and τ_c = g·m_c is
+///   the true product: the accurate tier's `depth_trans` takes it unrounded. The Fast
+///   tier rounds it once, to the same bits as `single_tau`'s τ: shared scale, its
+///   τ_c = (gm·s1)·m_c·s2 with s1 = 2^e and s2 = 1 from `pow2_pair` is the same products
+///   of the same values; grey, its τ = `ldexp`(gm·m_σ, e) = round(gm·m_σ)·2^e is the
+///   same number as round(gm·2^e·m_σ), since every value is normal, where scaling by
 ///   2^e commutes with rounding;
-/// - for e < −64 both τ are below 2^32·2^-64·2 = 2^-31, where `exp_neg` and
-///   `exp_neg_fast` give 1 (1 − τ rounds to 1 below 2^-25);
+/// - for e < −64 both τ are below 2^32·2^-64·2 = 2^-31, where `exp_neg`, `exp_neg_mul`
+///   and `exp_neg_fast` give 1 (as the true e^(−τ) rounds to: 1 − τ rounds to 1 below
+///   2^-25);
 /// - for e > 64 both τ are at least 2^-32·2^64·2^-16 = 2^16 (or 0 in both where m_c or
-///   gm is 0), where both give 0;
-/// - a NaN gm gives the same NaN in both (the first operand of each product).
+///   gm is 0), where all three give 0 (and the true e^(−τ) is below f32's range);
+/// - a NaN gm or e gives NaN in both.
+///
+/// The Fast tier's T is then the same bits as from `single_tau`'s τ; the accurate tier's
+/// is e^(−τ) of the unrounded τ (see [`exp_neg_mul`]), not `exp_neg` of the rounded one.
 #[inline(always)]
-fn shared_depth<L: Lane>(single: &Single, depth: &[(L, L)], gs: &mut [L; BLOCK]) -> bool {
-    let es = L::splat(if single.grey {
-        single.layer.sigma[0].e
-    } else {
-        single.shared.0
-    });
-    // The sum of the exponents is NaN if one is (each is below 2^23 in magnitude).
-    let mut sum = L::splat(0.0);
-    for (g, &(gm, ge)) in gs.iter_mut().zip(depth) {
-        let e = ge + es;
-        sum = sum + e;
-        *g = gm * L::pow2i(e.clamp(L::splat(-64.0), L::splat(64.0)));
+fn shared_depth<L: Lane>(single: &Single, depth: &[(L, L)], gs: &mut [L; BLOCK]) {
+    let es = L::splat(single.depth_scale.0);
+    for (g, &d) in gs.iter_mut().zip(depth) {
+        *g = shared_g(es, d);
     }
-    !L::any(!sum.eq(sum))
 }
 
 /// Run-time dispatch to 16 AVX-512 lanes ([`crate::math::zmm::Zmm`]) in builds that do not
@@ -1597,7 +1654,20 @@ fn eval_block<L: Lane, const AXIS: usize, const UNIT: bool, const FAST: bool>(
         1 => tau_loop!(1),
         _ => tau_loop!(2),
     }
-    if single.grey {
+    if single.t_from_depth::<FAST>() {
+        let es = L::splat(single.depth_scale.0);
+        let k = single.depth_scale.1;
+        if single.grey {
+            for (r, &d) in outs.iter_mut().zip(&depth) {
+                r.trans = [exp_neg_mul(shared_g(es, d), k[0]); 3];
+            }
+        } else {
+            for (r, &d) in outs.iter_mut().zip(&depth) {
+                let g = shared_g(es, d);
+                r.trans = rgb!(ch => exp_neg_mul(g, k[ch]));
+            }
+        }
+    } else if single.grey {
         for r in outs.iter_mut() {
             r.trans = [single_trans::<L, FAST>(r.tau[0]); 3];
         }
@@ -1788,13 +1858,16 @@ mod tests {
         v
     }
 
-    /// `shared_depth` (T without τ) against `single_tau`: the same T bits, both tiers,
-    /// for depths (gm, ge) over the whole range the kernel produces (gm < 2^32, ≥ 2^-32
-    /// or 0, NaN), with the scale exponent e = ge + e_s on both sides of ±64 and far
-    /// beyond, σ sets with a zero channel and channels 2^16 apart, and grey ones (zero
-    /// included); a NaN exponent makes the block fall back.
+    /// `shared_depth`'s g against the exact τ: the accurate tier's `depth_trans` within
+    /// `exp_neg_mul`'s 0.64 ULP of the f64 e^(−τ) of the exact τ = gm·2^(ge+e_s)·m_c (an
+    /// absolute error below 2^-126 where that is below 2^-126), and the Fast tier's T from
+    /// g·m_c the same bits as from `single_tau`'s τ; for depths (gm, ge) over the whole
+    /// range the kernel produces (gm < 2^32, ≥ 2^-32 or 0, NaN), with the scale exponent
+    /// e = ge + e_s on both sides of ±64 and far beyond, σ sets with a zero channel and
+    /// channels 2^16 apart, and grey ones (zero included). A NaN exponent gives NaN in its
+    /// lane only.
     #[test]
-    fn shared_depth_gives_the_transmittance_of_single_tau() {
+    fn shared_depth_gives_the_transmittance_of_the_exact_tau() {
         let two = |e: i32| 2.0f32.powi(e);
         let gms = [
             0.0,
@@ -1821,7 +1894,16 @@ mod tests {
             [1.0; 3],
             [0.0; 3],
         ];
+        let bits = |x: f32x8| {
+            let x = x.to_array()[0];
+            if x.is_nan() {
+                u32::MAX
+            } else {
+                x.to_bits()
+            }
+        };
         let mut checked = [0usize; 3];
+        let mut worst = 0.0f64;
         for sigma in sigmas {
             let s = single(0.1, 0.0, sigma);
             let grey = sigma[0] == sigma[1] && sigma[1] == sigma[2];
@@ -1837,34 +1919,43 @@ mod tests {
                     let ge = (e - es) as f32;
                     let depth = [(f32x8::splat(gm), f32x8::splat(ge)); BLOCK];
                     let mut gs = [f32x8::splat(0.0); BLOCK];
-                    assert!(shared_depth(&s, &depth, &mut gs));
+                    shared_depth(&s, &depth, &mut gs);
                     let tau = if grey {
                         single_tau::<f32x8, 0>(&s, depth[0])
                     } else {
                         single_tau::<f32x8, 1>(&s, depth[0])
                     };
+                    let tr = depth_trans(&s, gs[0]);
                     for ch in 0..3 {
-                        let tau_c = gs[0] * f32x8::splat(mc[ch]);
-                        let bits = |x: f32x8| {
-                            let x = x.to_array()[0];
-                            if x.is_nan() {
-                                u32::MAX
-                            } else {
-                                x.to_bits()
-                            }
-                        };
                         let ctx = format!("sigma={sigma:?} gm={gm:e} e={e} channel {ch}");
                         assert_eq!(
-                            bits(single_trans::<f32x8, false>(tau_c)),
-                            bits(single_trans::<f32x8, false>(tau[ch])),
-                            "{ctx}"
-                        );
-                        assert_eq!(
-                            bits(single_trans::<f32x8, true>(tau_c)),
+                            bits(single_trans::<f32x8, true>(gs[0] * f32x8::splat(mc[ch]))),
                             bits(single_trans::<f32x8, true>(tau[ch])),
                             "Fast tier: {ctx}"
                         );
-                        let t = single_trans::<f32, false>(tau[ch].to_array()[0]);
+                        let t = tr[ch].to_array()[0];
+                        // The exact τ (gm·m_c is exact in f64; 2^e may leave its range,
+                        // to 0 or inf, where e^(−τ) is 1 or 0 either way).
+                        let exact = f64::from(gm) * f64::from(mc[ch]) * 2f64.powi(e);
+                        let want = if (mc[ch] == 0.0 || gm == 0.0) && gm.is_finite() {
+                            1.0
+                        } else {
+                            (-exact).exp()
+                        };
+                        if gm.is_nan() {
+                            assert!(t.is_nan(), "{ctx}: {t:e}");
+                            continue;
+                        }
+                        let err = if want >= f64::from(f32::MIN_POSITIVE) {
+                            let ulp = 2f64.powi(want.log2().floor() as i32 - 23);
+                            (f64::from(t) - want).abs() / ulp
+                        } else {
+                            let abs = (f64::from(t) - want).abs();
+                            assert!(abs < f64::from(f32::MIN_POSITIVE), "{ctx}: {t:e}");
+                            0.0
+                        };
+                        assert!(err <= 0.64, "{ctx}: T = {t:e}, want {want:e}: {err} ULP");
+                        worst = worst.max(err);
                         checked[if t == 1.0 {
                             0
                         } else if t == 0.0 {
@@ -1878,13 +1969,28 @@ mod tests {
         }
         // T = 1, T = 0 and T in between were all compared.
         assert!(checked.iter().all(|&n| n > 500), "{checked:?}");
-        // A NaN exponent in one lane of one packet: the block falls back.
+        assert!(worst > 0.0, "no rounding seen: the test does not test");
+        // A NaN exponent in one lane of one packet: NaN there, the other lanes' T as
+        // without it.
         let s = single(0.1, 0.0, [0.02, 0.03, 0.05]);
         let mut depth = [(f32x8::splat(1.0), f32x8::splat(0.0)); BLOCK];
+        let clean = depth;
         let mut ge = [0.0f32; 8];
         ge[5] = f32::NAN;
         depth[BLOCK - 1].1 = f32x8::from(ge);
-        assert!(!shared_depth(&s, &depth, &mut [f32x8::splat(0.0); BLOCK]));
+        let (mut gs, mut gs_clean) = ([f32x8::splat(0.0); BLOCK], [f32x8::splat(0.0); BLOCK]);
+        shared_depth(&s, &depth, &mut gs);
+        shared_depth(&s, &clean, &mut gs_clean);
+        for k in 0..BLOCK {
+            let (a, b) = (gs[k].to_array(), gs_clean[k].to_array());
+            for l in 0..8 {
+                if k == BLOCK - 1 && l == 5 {
+                    assert!(a[l].is_nan());
+                } else {
+                    assert_eq!(a[l].to_bits(), b[l].to_bits(), "packet {k} lane {l}");
+                }
+            }
+        }
     }
 
     #[test]

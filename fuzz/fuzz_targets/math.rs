@@ -7,6 +7,9 @@
 //! - `expm1`: NaN exactly for NaN, else ≥ -1, the sign of x, within its ULP bound;
 //! - `exp_neg` (x >= 0): NaN exactly for NaN, within its ULP bound for results >= 2^-126,
 //!   below 2^-126 absolute error beyond;
+//! - `exp_neg_mul` (x >= 0, a factor κ from the input's bits where `ExpNegMul::new`
+//!   takes it): e^(−x·κ) of the exact product, as `exp_neg`; NaN exactly for NaN x (and
+//!   for +inf x with κ = 0);
 //! - `exprel_neg` (x >= 2^-60): NaN exactly for NaN, in [0, 1], within its ULP bound;
 //! - `exp_split`: NaN mantissa for NaN, else m in [0.70, 1.42] (|x| <= 709; [0.66, 1.50]
 //!   beyond), k an integer;
@@ -29,7 +32,8 @@ use wide::f32x8;
 /// The bounds measured by `tests/exhaustive.rs` (and written in `src/math/*.rs`).
 const EXP_MAX_ULP: f64 = 1.08;
 const EXPM1_MAX_ULP: f64 = 1.44;
-const EXP_NEG_MAX_ULP: f64 = 1.07;
+const EXP_NEG_MAX_ULP: f64 = 0.621;
+const EXP_NEG_MUL_MAX_ULP: f64 = 0.64;
 const EXPREL_NEG_MAX_ULP: f64 = 1.73;
 
 fn ulp_of(c: f32) -> f64 {
@@ -136,6 +140,37 @@ fuzz_target!(|data: &[u8]| {
                 assert!(e <= EXP_NEG_MAX_ULP, "exp_neg({x:e}) = {y:e}: {e} ULP");
             } else {
                 assert!(y >= 0.0 && ((y as f64) - r).abs() < f32::MIN_POSITIVE as f64);
+            }
+        }
+    }
+    // exp_neg_mul on |x| with κ = |es[0]| where that is in the factor's domain.
+    let kappa = es[0].abs();
+    if let Some(k) = math::ExpNegMul::new(kappa) {
+        let y8 = math::exp_neg_mul(f32x8::new(ax), k).to_array();
+        for l in 0..8 {
+            let (x, y) = (ax[l], math::exp_neg_mul(ax[l], k));
+            let ctx = || format!("exp_neg_mul({x:e}, {kappa:e}) = {y:e}");
+            assert!(
+                same(y, y8[l]) || (y.is_nan() && y8[l].is_nan()),
+                "{}: x8 {:e}",
+                ctx(),
+                y8[l]
+            );
+            let nan = x.is_nan() || (x.is_infinite() && kappa == 0.0);
+            assert_eq!(y.is_nan(), nan, "{}", ctx());
+            if !nan {
+                // The product is exact in f64 (24 + 24 bits, within its range).
+                let r = (-(x as f64) * kappa as f64).exp();
+                if r >= f32::MIN_POSITIVE as f64 {
+                    let e = ulp_err(y, r);
+                    assert!(e <= EXP_NEG_MUL_MAX_ULP, "{}: {e} ULP", ctx());
+                } else {
+                    assert!(
+                        y >= 0.0 && ((y as f64) - r).abs() < f32::MIN_POSITIVE as f64,
+                        "{}",
+                        ctx()
+                    );
+                }
             }
         }
     }

@@ -44,7 +44,7 @@ pub use exp::{exp, exp_split};
 pub use exp2_nonpos::exp2_nonpos;
 pub use exp2_nonpos_table::{exp2_nonpos_table, exp2_nonpos_table_mul};
 pub use exp2m1::exp2m1;
-pub use exp_neg::exp_neg;
+pub use exp_neg::{exp_neg, exp_neg_mul, ExpNegMul};
 pub use expm1::expm1;
 pub use exprel::exprel_neg;
 pub use fast::{exp_neg_fast, exp_split_fast, exprel_neg_fast};
