@@ -1656,16 +1656,8 @@ fn eval_block<L: Lane, const AXIS: usize, const UNIT: bool, const FAST: bool>(
     }
     if single.t_from_depth::<FAST>() {
         let es = L::splat(single.depth_scale.0);
-        let k = single.depth_scale.1;
-        if single.grey {
-            for (r, &d) in outs.iter_mut().zip(&depth) {
-                r.trans = [exp_neg_mul(shared_g(es, d), k[0]); 3];
-            }
-        } else {
-            for (r, &d) in outs.iter_mut().zip(&depth) {
-                let g = shared_g(es, d);
-                r.trans = rgb!(ch => exp_neg_mul(g, k[ch]));
-            }
+        for (r, &d) in outs.iter_mut().zip(&depth) {
+            r.trans = depth_trans(single, shared_g(es, d));
         }
     } else if single.grey {
         for r in outs.iter_mut() {
