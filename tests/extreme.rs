@@ -391,12 +391,7 @@ fn extreme_table() {
         }
     }
     println!();
-    println!(
-        "| group           | rows   | no digit | max κ    | max rel err τ | τ err/bound | T err/bound | L_in err/bound |"
-    );
-    println!(
-        "|-----------------|-------:|---------:|---------:|--------------:|------------:|------------:|---------------:|"
-    );
+    println!("{}", reference::markdown_header("group", "rows"));
     for (name, w) in &groups {
         println!("{}", w.markdown_row(name));
     }

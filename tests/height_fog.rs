@@ -832,12 +832,7 @@ fn worst_errors_report() {
         .unwrap_or(300);
     let mut runner = TestRunner::deterministic();
     println!();
-    println!(
-        "| range           | rays   | no digit | max κ    | max rel err τ | τ err/bound | T err/bound | L_in err/bound |"
-    );
-    println!(
-        "|-----------------|-------:|---------:|---------:|--------------:|------------:|------------:|---------------:|"
-    );
+    println!("{}", reference::markdown_header("range", "rays"));
     let ranges: [(&str, BoxedStrategy<(SceneDesc, Scene, Vec<Ray>)>); 3] = [
         ("typical", case(Range::Typical, 1..=16, false)),
         ("extreme", case(Range::Extreme, 1..=16, true)),

@@ -50,8 +50,8 @@ mod quad;
 pub mod volume;
 
 pub use check::{
-    check_sample, condition, tau_interval, tau_tolerance, up_is_axis, up_rounding, SampleCheck,
-    WorstErrors, EPS32, L_IN_TOLERANCE, T_FLUSH,
+    check_sample, condition, markdown_header, tau_interval, tau_tolerance, up_is_axis, up_rounding,
+    SampleCheck, WorstErrors, EPS32, L_IN_TOLERANCE, T_FLUSH,
 };
 pub use compose::{
     composition_rays, composition_scenes, marched_sample, mixed_sample, ordered_sample,
