@@ -5,8 +5,9 @@
 //! ```
 //!
 //! Every f32 input of each function's domain (all 2^32 bit patterns for `exp`, `expm1`,
-//! `exp_split`, `frexp` and `exp2m1`; every f32 >= 0 for `exp_neg`, every f32 <= 0 for
-//! `exp2_nonpos` and `exp2_nonpos_table`, every f32 >= 2^-60 for `exprel_neg`; every mantissa of `ldexp`'s precondition domain with a sampled exponent)
+//! `exp_split`, `exp2_split`, `frexp` and `exp2m1`; every f32 >= 0 for `exp_neg`, every f32
+//! <= 0 for `exp2_nonpos` and `exp2_nonpos_table`, every f32 >= 2^-60 for `exprel_neg` and
+//! `exprel2_neg`; every mantissa of `ldexp`'s precondition domain with a sampled exponent)
 //! is evaluated 8 at a time through the `wide::f32x8` instantiation, and one at a time
 //! through the scalar `f32` instantiation, which must give the same bits. Errors are
 //! measured in ULP of the correctly rounded f32 result (2^-149 for subnormal results)
@@ -30,6 +31,9 @@ const EXP_NEG_MAX_ULP: f64 = 0.621;
 /// `EXP_NEG_MUL_FACTORS=65536`): a little room for the factors not tried.
 const EXP_NEG_MUL_MAX_ULP: f64 = 0.64;
 const EXPREL_NEG_MAX_ULP: f64 = 1.73;
+const EXPREL2_NEG_MAX_ULP: f64 = 1.611;
+/// `exp2_split`'s `m · 2^k` (not rounded into the f32 range), for y in [-1022, 1023] (normal f64 results).
+const EXP2_SPLIT_MAX_ULP: f64 = 0.876;
 const EXP2_NONPOS_MAX_ULP: f64 = 1.09;
 const EXP2_NONPOS_TABLE_MAX_ULP: f64 = 0.993;
 /// Sampled (2^22 products; max 0.9945 measured): r comes from the exact product, so it
@@ -777,6 +781,48 @@ fn exprel_neg_exhaustive() {
     assert_max("exprel_neg (beyond)", &st.beyond, EXPREL_NEG_MAX_ULP);
 }
 
+#[test]
+#[ignore = "exhaustive sweep: run in release with --ignored"]
+fn exprel2_neg_exhaustive() {
+    // Every f32 >= 2^-60, +inf and the positive NaNs.
+    let ranges = vec![(2f32.powi(-60).to_bits(), 0x7fff_ffff)];
+    let top = 2f32.powi(11);
+    let st = sweep::<ExprelState, _>(&ranges, |st, xs, live| {
+        let y = x8_and_scalar(
+            xs,
+            live,
+            &mut st.fails,
+            "exprel2_neg",
+            math::exprel2_neg,
+            math::exprel2_neg,
+        );
+        for l in 0..live {
+            let x = xs[l];
+            if x.is_nan() {
+                continue;
+            }
+            let xd = x as f64;
+            let r = if x.is_infinite() {
+                0.0
+            } else {
+                -(-xd * std::f64::consts::LN_2).exp_m1() / xd
+            };
+            let e = ulp_err(y[l], r);
+            if x <= top {
+                st.domain.record(x, y[l], r, e);
+            } else {
+                st.beyond.record(x, y[l], r, e);
+            }
+        }
+    });
+    println!();
+    st.domain.print("math::exprel2_neg", "[2^-60, 2^11]");
+    st.beyond.print("math::exprel2_neg", "(2^11, +inf]");
+    st.fails.assert_none("exprel2_neg");
+    assert_max("exprel2_neg", &st.domain, EXPREL2_NEG_MAX_ULP);
+    assert_max("exprel2_neg (beyond)", &st.beyond, 0.5);
+}
+
 // ---------------------------------------------------------------------------------------
 // exp_split
 
@@ -904,6 +950,62 @@ fn exp_split_exhaustive() {
     st.fails.assert_none("exp_split");
     assert_max("exp_split", &st.in_range, EXP_SPLIT_MAX_ULP);
     assert_max("exp_split (beyond)", &st.beyond, EXP_SPLIT_MAX_ULP);
+}
+
+#[test]
+#[ignore = "exhaustive sweep: run in release with --ignored"]
+fn exp2_split_exhaustive() {
+    let st = sweep::<SplitState, _>(&all_f32(), |st, xs, live| {
+        let (m8, k8) = math::exp2_split(f32x8::new(xs));
+        let (m8, k8) = (m8.to_array(), k8.to_array());
+        for l in 0..live {
+            let y = xs[l];
+            let (m, k) = math::exp2_split(y);
+            st.fails.check(
+                m.to_bits() == m8[l].to_bits() && k.to_bits() == k8[l].to_bits(),
+                || {
+                    format!(
+                        "exp2_split({y:e}): x8 ({:e}, {:e}), scalar ({m:e}, {k:e})",
+                        m8[l], k8[l]
+                    )
+                },
+            );
+            if y.is_nan() {
+                st.fails
+                    .check(m.is_nan(), || format!("exp2_split(NaN) = ({m:e}, {k:e})"));
+                continue;
+            }
+            // For every non-NaN input (±inf clamped to ±2^20): m in [0.70, 1.42], k an
+            // integer with |k| <= 2^20.
+            st.m_all.add(m);
+            st.fails.check(
+                (0.70..=1.42).contains(&m) && k == k.round() && k.abs() <= 1_048_576.0,
+                || format!("exp2_split({y:e}) = ({m:e}, {k:e}): out of range"),
+            );
+            if (-1022.0..=1023.0).contains(&y) {
+                st.m_709.add(m);
+                let r = (y as f64).exp2();
+                let v = m as f64 * pow2(k as i32);
+                let e = ulp_err_unbounded(v, r);
+                if (-149.0..=128.0).contains(&y) {
+                    st.in_range.record(y, m, r, e);
+                } else {
+                    st.beyond.record(y, m, r, e);
+                }
+            }
+        }
+    });
+    println!();
+    st.in_range.print("math::exp2_split m·2^k", "[-149, 128]");
+    st.beyond
+        .print("math::exp2_split m·2^k", "[-1022, 1023] \\ [-149, 128]");
+    println!(
+        "math::exp2_split m range: [{}, {}] for all y",
+        st.m_all.0, st.m_all.1
+    );
+    st.fails.assert_none("exp2_split");
+    assert_max("exp2_split", &st.in_range, EXP2_SPLIT_MAX_ULP);
+    assert_max("exp2_split (beyond)", &st.beyond, EXP2_SPLIT_MAX_ULP);
 }
 
 // ---------------------------------------------------------------------------------------

@@ -130,6 +130,7 @@ fn x16_equals_scalar_for_every_special_function() {
         ("exp2_nonpos_table", one!(math::exp2_nonpos_table)),
         ("exp2m1", one!(math::exp2m1)),
         ("exprel_neg", one!(math::exprel_neg)),
+        ("exprel2_neg", one!(math::exprel2_neg)),
         ("exp_neg_fast", one!(math::exp_neg_fast)),
         ("exprel_neg_fast", one!(math::exprel_neg_fast)),
         ("erf", one!(math::erf)),
@@ -138,6 +139,7 @@ fn x16_equals_scalar_for_every_special_function() {
         ("log", one!(math::log)),
         ("log1p", one!(math::log1p)),
         ("exp_split", two!(math::exp_split)),
+        ("exp2_split", two!(math::exp2_split)),
         ("exp_split_fast", two!(math::exp_split_fast)),
         ("frexp", two!(math::frexp)),
         // `frexp` but for NaN's mantissa (any): for NaN only the exponent is compared.

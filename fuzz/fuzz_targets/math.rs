@@ -11,8 +11,9 @@
 //!   takes it): e^(−x·κ) of the exact product, as `exp_neg`; NaN exactly for NaN x (and
 //!   for +inf x with κ = 0);
 //! - `exprel_neg` (x >= 2^-60): NaN exactly for NaN, in [0, 1], within its ULP bound;
+//!   `exprel2_neg` the same in [0, ln 2 + 1 ulp];
 //! - `exp_split`: NaN mantissa for NaN, else m in [0.70, 1.42] (|x| <= 709; [0.66, 1.50]
-//!   beyond), k an integer;
+//!   beyond), k an integer; `exp2_split` m in [0.70, 1.42] for every non-NaN input;
 //! - `frexp`: exact (m · 2^e == x), |m| in [1, 2); and `ldexp(frexp(x)) == x`;
 //! - `ldexp`: on its precondition (|m| in [2^-62, 2^39] or 0, integer-valued e, any size)
 //!   the correctly rounded m · 2^e, saturation and sign of zero included; outside it, no
@@ -35,6 +36,7 @@ const EXPM1_MAX_ULP: f64 = 1.44;
 const EXP_NEG_MAX_ULP: f64 = 0.621;
 const EXP_NEG_MUL_MAX_ULP: f64 = 0.64;
 const EXPREL_NEG_MAX_ULP: f64 = 1.73;
+const EXPREL2_NEG_MAX_ULP: f64 = 1.611;
 
 fn ulp_of(c: f32) -> f64 {
     let a = c.abs();
@@ -205,6 +207,31 @@ fuzz_target!(|data: &[u8]| {
             );
         }
     }
+    let y8 = math::exprel2_neg(f32x8::new(ax)).to_array();
+    for l in 0..8 {
+        let (x, y) = (ax[l], math::exprel2_neg(ax[l]));
+        assert!(
+            same(y, y8[l]),
+            "exprel2_neg({x:e}): x8 {:e}, scalar {y:e}",
+            y8[l]
+        );
+        assert_eq!(y.is_nan(), x.is_nan(), "exprel2_neg({x:e}) = {y:e}");
+        if !x.is_nan() {
+            // At most one ulp above ln 2: the product and the quotient are rounded apart.
+            let top = f32::from_bits(core::f32::consts::LN_2.to_bits() + 1);
+            assert!((0.0..=top).contains(&y), "exprel2_neg({x:e}) = {y:e}");
+            let r = if x.is_infinite() {
+                0.0
+            } else {
+                -(-(x as f64) * core::f64::consts::LN_2).exp_m1() / x as f64
+            };
+            let e = ulp_err(y, r);
+            assert!(
+                e <= EXPREL2_NEG_MAX_ULP,
+                "exprel2_neg({x:e}) = {y:e}: {e} ULP"
+            );
+        }
+    }
 
     // exp_split
     let (m8, k8) = math::exp_split(x8);
@@ -224,6 +251,23 @@ fuzz_target!(|data: &[u8]| {
             assert!(
                 mr.contains(&m) && k == k.round() && k.abs() <= 1_512_776.0,
                 "exp_split({x:e}) = ({m:e}, {k:e})"
+            );
+        }
+    }
+
+    // exp2_split
+    let (m8, k8) = math::exp2_split(x8);
+    let (m8, k8) = (m8.to_array(), k8.to_array());
+    for l in 0..8 {
+        let x = xs[l];
+        let (m, k) = math::exp2_split(x);
+        assert!(same(m, m8[l]) && same(k, k8[l]), "exp2_split({x:e})");
+        if x.is_nan() {
+            assert!(m.is_nan(), "exp2_split(NaN) = ({m:e}, {k:e})");
+        } else {
+            assert!(
+                (0.70..=1.42).contains(&m) && k == k.round() && k.abs() <= 1_048_576.0,
+                "exp2_split({x:e}) = ({m:e}, {k:e})"
             );
         }
     }

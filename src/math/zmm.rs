@@ -473,6 +473,7 @@ mod tests {
             ("exp2_nonpos_table", one!(math::exp2_nonpos_table)),
             ("exp2m1", one!(math::exp2m1)),
             ("exprel_neg", one!(math::exprel_neg)),
+            ("exprel2_neg", one!(math::exprel2_neg)),
             ("exp_neg_fast", one!(math::exp_neg_fast)),
             ("exprel_neg_fast", one!(math::exprel_neg_fast)),
             ("erf", one!(math::erf)),
@@ -481,6 +482,7 @@ mod tests {
             ("log", one!(math::log)),
             ("log1p", one!(math::log1p)),
             ("exp_split", two!(math::exp_split)),
+            ("exp2_split", two!(math::exp2_split)),
             ("exp_split_fast", two!(math::exp_split_fast)),
             ("frexp", two!(math::frexp)),
             // For NaN only the exponent is compared (the mantissa is any); ±inf must
