@@ -850,19 +850,19 @@ fn pow2(n: i32) -> f64 {
 
 #[derive(Default)]
 struct SplitState {
-    /// x in [-104, 89]: the part whose result fits the f32 range.
+    /// x in [`SplitSpec::in_range`]: the part whose result fits the f32 range.
     in_range: Errors,
-    /// x in [-708, 709], outside [-104, 89]: m·2^k against f64 (normal f64 results).
+    /// The rest of [`SplitSpec::measured`]: m·2^k against f64 (normal f64 results).
     beyond: Errors,
-    /// The range of m for |x| <= 709, and for all inputs.
-    m_709: MinMax,
+    /// The range of m for |x| up to [`SplitSpec::m_near`]'s bound, and for all inputs.
+    m_near: MinMax,
     m_all: MinMax,
     fails: Failures,
 }
 merge_fields!(SplitState {
     in_range,
     beyond,
-    m_709,
+    m_near,
     m_all,
     fails
 });
@@ -889,49 +889,70 @@ impl Merge for MinMax {
     }
 }
 
-#[test]
-#[ignore = "exhaustive sweep: run in release with --ignored"]
-fn exp_split_exhaustive() {
+/// What [`split_sweep`] checks of one split function `f(x) = (m, k)`, x = m · 2^k in its
+/// base.
+struct SplitSpec {
+    name: &'static str,
+    f: fn(f32) -> (f32, f32),
+    f8: fn(f32x8) -> (f32x8, f32x8),
+    /// The value m · 2^k stands for, in f64.
+    want: fn(f64) -> f64,
+    /// m's range for every non-NaN input, and the largest |k|.
+    m_all: (f32, f32),
+    k_max: f32,
+    /// m's tighter range for |x| up to the first value.
+    m_near: (f32, (f32, f32)),
+    /// Where m · 2^k is measured (normal f64 results), and the part of it whose results
+    /// fit the f32 range (the first table row; the rest is the second).
+    measured: (f32, f32),
+    in_range: (f32, f32),
+    bound: f64,
+}
+
+/// The exhaustive sweep of a split function (`exp_split`, `exp2_split`): x8 against
+/// scalar bit for bit, NaN mantissa for NaN, the ranges of m and k, and m · 2^k against
+/// f64 with an unbounded exponent.
+fn split_sweep(spec: &SplitSpec) {
+    let name = spec.name;
     let st = sweep::<SplitState, _>(&all_f32(), |st, xs, live| {
-        let (m8, k8) = math::exp_split(f32x8::new(xs));
+        let (m8, k8) = (spec.f8)(f32x8::new(xs));
         let (m8, k8) = (m8.to_array(), k8.to_array());
         for l in 0..live {
             let x = xs[l];
-            let (m, k) = math::exp_split(x);
+            let (m, k) = (spec.f)(x);
             st.fails.check(
                 m.to_bits() == m8[l].to_bits() && k.to_bits() == k8[l].to_bits(),
                 || {
                     format!(
-                        "exp_split({x:e}): x8 ({:e}, {:e}), scalar ({m:e}, {k:e})",
+                        "{name}({x:e}): x8 ({:e}, {:e}), scalar ({m:e}, {k:e})",
                         m8[l], k8[l]
                     )
                 },
             );
             if x.is_nan() {
                 st.fails
-                    .check(m.is_nan(), || format!("exp_split(NaN) = ({m:e}, {k:e})"));
+                    .check(m.is_nan(), || format!("{name}(NaN) = ({m:e}, {k:e})"));
                 continue;
             }
-            // For every non-NaN input (±inf clamped to ±2^20): m in [0.66, 1.50] and
-            // k an integer no larger than 2^20·log2(e); m in [0.70, 1.42] where
-            // |x| <= 709 (the rounding of x·log2(e) to f32 widens the reduced range
-            // beyond).
             st.m_all.add(m);
             st.fails.check(
-                (0.66..=1.50).contains(&m) && k == k.round() && k.abs() <= 1_512_776.0,
-                || format!("exp_split({x:e}) = ({m:e}, {k:e}): out of range"),
+                (spec.m_all.0..=spec.m_all.1).contains(&m)
+                    && k == k.round()
+                    && k.abs() <= spec.k_max,
+                || format!("{name}({x:e}) = ({m:e}, {k:e}): out of range"),
             );
-            if (-709.0..=709.0).contains(&x) {
-                st.m_709.add(m);
-                st.fails.check((0.70..=1.42).contains(&m), || {
-                    format!("exp_split({x:e}) = ({m:e}, {k:e}): m out of range")
+            let (near, (lo, hi)) = spec.m_near;
+            if x.abs() <= near {
+                st.m_near.add(m);
+                st.fails.check((lo..=hi).contains(&m), || {
+                    format!("{name}({x:e}) = ({m:e}, {k:e}): m out of range")
                 });
             }
-            if (-708.0..=709.0).contains(&x) {
-                let r = (x as f64).exp();
+            if (spec.measured.0..=spec.measured.1).contains(&x) {
+                let r = (spec.want)(x as f64);
                 let v = m as f64 * pow2(k as i32);
                 let e = ulp_err_unbounded(v, r);
-                if (-104.0..=89.0).contains(&x) {
+                if (spec.in_range.0..=spec.in_range.1).contains(&x) {
                     st.in_range.record(x, m, r, e);
                 } else {
                     st.beyond.record(x, m, r, e);
@@ -939,73 +960,58 @@ fn exp_split_exhaustive() {
             }
         }
     });
+    let label = format!("math::{name} m·2^k");
+    let (a, b) = (spec.in_range, spec.measured);
     println!();
-    st.in_range.print("math::exp_split m·2^k", "[-104, 89]");
+    st.in_range.print(&label, &format!("[{}, {}]", a.0, a.1));
     st.beyond
-        .print("math::exp_split m·2^k", "[-708, 709] \\ [-104, 89]");
+        .print(&label, &format!("[{}, {}] \\ [{}, {}]", b.0, b.1, a.0, a.1));
     println!(
-        "math::exp_split m range: [{}, {}] for |x| <= 709, [{}, {}] for all x",
-        st.m_709.0, st.m_709.1, st.m_all.0, st.m_all.1
+        "math::{name} m range: [{}, {}] for |x| <= {}, [{}, {}] for all x",
+        st.m_near.0, st.m_near.1, spec.m_near.0, st.m_all.0, st.m_all.1
     );
-    st.fails.assert_none("exp_split");
-    assert_max("exp_split", &st.in_range, EXP_SPLIT_MAX_ULP);
-    assert_max("exp_split (beyond)", &st.beyond, EXP_SPLIT_MAX_ULP);
+    st.fails.assert_none(name);
+    assert_max(name, &st.in_range, spec.bound);
+    assert_max(&format!("{name} (beyond)"), &st.beyond, spec.bound);
+}
+
+#[test]
+#[ignore = "exhaustive sweep: run in release with --ignored"]
+fn exp_split_exhaustive() {
+    // For every non-NaN input (±inf clamped to ±2^20): m in [0.66, 1.50] and k an integer
+    // no larger than 2^20·log2(e); m in [0.70, 1.42] where |x| <= 709 (the rounding of
+    // x·log2(e) to f32 widens the reduced range beyond).
+    split_sweep(&SplitSpec {
+        name: "exp_split",
+        f: math::exp_split,
+        f8: math::exp_split,
+        want: f64::exp,
+        m_all: (0.66, 1.50),
+        k_max: 1_512_776.0,
+        m_near: (709.0, (0.70, 1.42)),
+        measured: (-708.0, 709.0),
+        in_range: (-104.0, 89.0),
+        bound: EXP_SPLIT_MAX_ULP,
+    });
 }
 
 #[test]
 #[ignore = "exhaustive sweep: run in release with --ignored"]
 fn exp2_split_exhaustive() {
-    let st = sweep::<SplitState, _>(&all_f32(), |st, xs, live| {
-        let (m8, k8) = math::exp2_split(f32x8::new(xs));
-        let (m8, k8) = (m8.to_array(), k8.to_array());
-        for l in 0..live {
-            let y = xs[l];
-            let (m, k) = math::exp2_split(y);
-            st.fails.check(
-                m.to_bits() == m8[l].to_bits() && k.to_bits() == k8[l].to_bits(),
-                || {
-                    format!(
-                        "exp2_split({y:e}): x8 ({:e}, {:e}), scalar ({m:e}, {k:e})",
-                        m8[l], k8[l]
-                    )
-                },
-            );
-            if y.is_nan() {
-                st.fails
-                    .check(m.is_nan(), || format!("exp2_split(NaN) = ({m:e}, {k:e})"));
-                continue;
-            }
-            // For every non-NaN input (±inf clamped to ±2^20): m in [0.70, 1.42], k an
-            // integer with |k| <= 2^20.
-            st.m_all.add(m);
-            st.fails.check(
-                (0.70..=1.42).contains(&m) && k == k.round() && k.abs() <= 1_048_576.0,
-                || format!("exp2_split({y:e}) = ({m:e}, {k:e}): out of range"),
-            );
-            if (-1022.0..=1023.0).contains(&y) {
-                st.m_709.add(m);
-                let r = (y as f64).exp2();
-                let v = m as f64 * pow2(k as i32);
-                let e = ulp_err_unbounded(v, r);
-                if (-149.0..=128.0).contains(&y) {
-                    st.in_range.record(y, m, r, e);
-                } else {
-                    st.beyond.record(y, m, r, e);
-                }
-            }
-        }
+    // For every non-NaN input (±inf clamped to ±2^20): m in [0.70, 1.42], k an integer
+    // with |k| <= 2^20.
+    split_sweep(&SplitSpec {
+        name: "exp2_split",
+        f: math::exp2_split,
+        f8: math::exp2_split,
+        want: f64::exp2,
+        m_all: (0.70, 1.42),
+        k_max: 1_048_576.0,
+        m_near: (f32::INFINITY, (0.70, 1.42)),
+        measured: (-1022.0, 1023.0),
+        in_range: (-149.0, 128.0),
+        bound: EXP2_SPLIT_MAX_ULP,
     });
-    println!();
-    st.in_range.print("math::exp2_split m·2^k", "[-149, 128]");
-    st.beyond
-        .print("math::exp2_split m·2^k", "[-1022, 1023] \\ [-149, 128]");
-    println!(
-        "math::exp2_split m range: [{}, {}] for all y",
-        st.m_all.0, st.m_all.1
-    );
-    st.fails.assert_none("exp2_split");
-    assert_max("exp2_split", &st.in_range, EXP2_SPLIT_MAX_ULP);
-    assert_max("exp2_split (beyond)", &st.beyond, EXP2_SPLIT_MAX_ULP);
 }
 
 // ---------------------------------------------------------------------------------------
