@@ -738,21 +738,23 @@ merge_fields!(ExprelState {
     fails
 });
 
-#[test]
-#[ignore = "exhaustive sweep: run in release with --ignored"]
-fn exprel_neg_exhaustive() {
-    // Every f32 >= 2^-60, +inf and the positive NaNs.
+/// The exhaustive sweep of a φ-like function `f(x) = (1 − b^−x)/x` (`exprel_neg`,
+/// `exprel2_neg`) over every f32 >= 2^-60, +inf and the positive NaNs: x8 against
+/// scalar bit for bit, NaN for NaN, and the error against the f64 value
+/// −expm1(−x·ln b)/x (`ln_b` = ln b), within `bound` up to 2^11 and `beyond` above
+/// (where it is 1/x).
+fn exprel_sweep(
+    name: &'static str,
+    f: fn(f32) -> f32,
+    f8: fn(f32x8) -> f32x8,
+    ln_b: f64,
+    bound: f64,
+    beyond: f64,
+) {
     let ranges = vec![(2f32.powi(-60).to_bits(), 0x7fff_ffff)];
     let top = 2f32.powi(11);
     let st = sweep::<ExprelState, _>(&ranges, |st, xs, live| {
-        let y = x8_and_scalar(
-            xs,
-            live,
-            &mut st.fails,
-            "exprel_neg",
-            math::exprel_neg,
-            math::exprel_neg,
-        );
+        let y = x8_and_scalar(xs, live, &mut st.fails, name, f8, f);
         for l in 0..live {
             let x = xs[l];
             if x.is_nan() {
@@ -763,7 +765,7 @@ fn exprel_neg_exhaustive() {
             let r = if x.is_infinite() {
                 0.0
             } else {
-                -(-xd).exp_m1() / xd
+                -(-xd * ln_b).exp_m1() / xd
             };
             let e = ulp_err(y[l], r);
             if x <= top {
@@ -773,54 +775,40 @@ fn exprel_neg_exhaustive() {
             }
         }
     });
+    let label = format!("math::{name}");
     println!();
-    st.domain.print("math::exprel_neg", "[2^-60, 2^11]");
-    st.beyond.print("math::exprel_neg", "(2^11, +inf]");
-    st.fails.assert_none("exprel_neg");
-    assert_max("exprel_neg", &st.domain, EXPREL_NEG_MAX_ULP);
-    assert_max("exprel_neg (beyond)", &st.beyond, EXPREL_NEG_MAX_ULP);
+    st.domain.print(&label, "[2^-60, 2^11]");
+    st.beyond.print(&label, "(2^11, +inf]");
+    st.fails.assert_none(name);
+    assert_max(name, &st.domain, bound);
+    assert_max(&format!("{name} (beyond)"), &st.beyond, beyond);
+}
+
+#[test]
+#[ignore = "exhaustive sweep: run in release with --ignored"]
+fn exprel_neg_exhaustive() {
+    exprel_sweep(
+        "exprel_neg",
+        math::exprel_neg,
+        math::exprel_neg,
+        1.0,
+        EXPREL_NEG_MAX_ULP,
+        EXPREL_NEG_MAX_ULP,
+    );
 }
 
 #[test]
 #[ignore = "exhaustive sweep: run in release with --ignored"]
 fn exprel2_neg_exhaustive() {
-    // Every f32 >= 2^-60, +inf and the positive NaNs.
-    let ranges = vec![(2f32.powi(-60).to_bits(), 0x7fff_ffff)];
-    let top = 2f32.powi(11);
-    let st = sweep::<ExprelState, _>(&ranges, |st, xs, live| {
-        let y = x8_and_scalar(
-            xs,
-            live,
-            &mut st.fails,
-            "exprel2_neg",
-            math::exprel2_neg,
-            math::exprel2_neg,
-        );
-        for l in 0..live {
-            let x = xs[l];
-            if x.is_nan() {
-                continue;
-            }
-            let xd = x as f64;
-            let r = if x.is_infinite() {
-                0.0
-            } else {
-                -(-xd * std::f64::consts::LN_2).exp_m1() / xd
-            };
-            let e = ulp_err(y[l], r);
-            if x <= top {
-                st.domain.record(x, y[l], r, e);
-            } else {
-                st.beyond.record(x, y[l], r, e);
-            }
-        }
-    });
-    println!();
-    st.domain.print("math::exprel2_neg", "[2^-60, 2^11]");
-    st.beyond.print("math::exprel2_neg", "(2^11, +inf]");
-    st.fails.assert_none("exprel2_neg");
-    assert_max("exprel2_neg", &st.domain, EXPREL2_NEG_MAX_ULP);
-    assert_max("exprel2_neg (beyond)", &st.beyond, 0.5);
+    // Above 2^11 the result is 1/x correctly rounded.
+    exprel_sweep(
+        "exprel2_neg",
+        math::exprel2_neg,
+        math::exprel2_neg,
+        std::f64::consts::LN_2,
+        EXPREL2_NEG_MAX_ULP,
+        0.5,
+    );
 }
 
 // ---------------------------------------------------------------------------------------
