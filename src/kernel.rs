@@ -162,7 +162,12 @@ const MAX_PHASES: usize = 4;
 /// hand-written kernel (`benches/plan.rs`).
 #[derive(Clone, Copy)]
 pub(crate) struct Single {
+    /// The layer in base 2 ([`LayerCore::base2`](crate::scene::LayerCore::base2)): the
+    /// depth stage forms G₂ = G/log2(e) with φ₂ and 2^x (no multiply by log2(e) and no
+    /// Cody–Waite split in either exponential), and τ = σ₂·G₂.
     pub(crate) layer: crate::scene::LayerCore,
+    /// The layer as compiled (natural base), for the framebuffer pass's own kernel.
+    pub(crate) natural: crate::scene::LayerCore,
     pub(crate) phases: [(crate::light::Phase, [f32; 3]); MAX_PHASES],
     pub(crate) n_phases: usize,
     /// The three channels' extinction is the same: one τ and one exponential.
@@ -185,13 +190,15 @@ pub(crate) struct Single {
 }
 
 impl Single {
-    /// `None` unless [`is_single_layer`].
+    /// `None` unless [`is_single_layer`] and the layer has a base-2 form (|b| below
+    /// f32::MAX/log2(e); beyond, the general kernel).
     #[inline(always)]
     pub(crate) fn of(scene: &Scene) -> Option<Single> {
         if !is_single_layer(scene) {
             return None;
         }
         let l = &scene.layers[0];
+        let layer = l.core.base2()?;
         let grey = l.core.sigma[0] == l.core.sigma[1] && l.core.sigma[1] == l.core.sigma[2];
         let mut phases = [(crate::light::Phase::Isotropic, [0.0; 3]); MAX_PHASES];
         phases[..l.colour_sun.len()].copy_from_slice(&l.colour_sun);
@@ -200,23 +207,25 @@ impl Single {
         let lit = phases.map(|(p, k)| (PhaseEval::new(p, s), k));
         let n_lit = if sun.is_some() { l.colour_sun.len() } else { 0 };
         Some(Single {
-            layer: l.core,
+            layer,
+            natural: l.core,
             phases,
             n_phases: l.colour_sun.len(),
             grey,
             tau_kind: if grey {
                 0
-            } else if l.core.shared_scale.is_some() {
+            } else if layer.shared_scale.is_some() {
                 1
             } else {
                 2
             },
-            shared: l.core.shared_scale.unwrap_or((0.0, [0.0; 3])),
+            shared: layer.shared_scale.unwrap_or((0.0, [0.0; 3])),
             depth_scale: {
+                // The mantissas of σ₂ (T = e^(−τ) of τ = σ₂·G₂ as `single_tau` forms it).
                 let (e, m) = if grey {
-                    (l.core.sigma[0].e, [l.core.sigma[0].m; 3])
+                    (layer.sigma[0].e, [layer.sigma[0].m; 3])
                 } else {
-                    l.core.shared_scale.unwrap_or((0.0, [0.0; 3]))
+                    layer.shared_scale.unwrap_or((0.0, [0.0; 3]))
                 };
                 (e, m.map(|m| ExpNegMul::new(m).unwrap_or_default()))
             },
@@ -278,7 +287,7 @@ pub(crate) fn eval_packet<
 /// two exponentials (see `layer_depth`), and the unit direction when the colour needs
 /// it (`WANT_L`; zeros otherwise).
 ///
-/// For an axis-aligned up vector and 0 < |b| ≤ 2^40 (`KIND` 1, the common case), a
+/// For an axis-aligned up vector and 0 < |b|·log2(e) ≤ 2^40 (`KIND` 1, the common case), a
 /// packet whose rays all stay within `depth_args_tame`'s bounds takes the arguments
 /// from it (no frexp, no exponent sums): the same bits after stage 3, for 55 instead of
 /// 93 instructions per 8-lane packet on the C peer's rays. A packet it rejects tries
@@ -350,7 +359,7 @@ pub(crate) fn single_args_general<L: Lane, const AXIS: usize, const UNIT: bool, 
 /// Stage 2: the layer's geometric depth G = τ/σ0 as (mantissa, exponent).
 #[inline(always)]
 pub(crate) fn single_depth<L: Lane, const FAST: bool>(single: &Single, a: DepthArgs<L>) -> (L, L) {
-    depth_of::<L, FAST>(&single.layer, a)
+    depth_of::<L, FAST, true>(&single.layer, a)
 }
 
 /// Stage 3: τ per channel from the geometric depth; `KIND` is [`Single::tau_kind`].
@@ -1579,14 +1588,14 @@ fn depth_stages<L: Lane, const FAST: bool>(
 ) {
     if kind == 0 {
         for (d, a) in depth.iter_mut().zip(args) {
-            *d = depth_with_of::<L, FAST, true>(a, L::splat(0.0));
+            *d = depth_with_of::<L, FAST, true, true>(a, L::splat(0.0));
         }
     } else {
         for (phi, a) in phis.iter_mut().zip(args) {
-            *phi = depth_phi::<L, FAST>(a);
+            *phi = depth_phi::<L, FAST, true>(a);
         }
         for ((d, a), &phi) in depth.iter_mut().zip(args).zip(phis.iter()) {
-            *d = depth_with_of::<L, FAST, false>(a, phi);
+            *d = depth_with_of::<L, FAST, true, false>(a, phi);
         }
     }
 }
@@ -1602,7 +1611,7 @@ fn depth_stages_tame<L: Lane, const FAST: bool, const UNIT: bool>(
     depth: &mut [(L, L); BLOCK],
 ) {
     for (phi, a) in phis.iter_mut().zip(args) {
-        *phi = depth_phi::<L, FAST>(a);
+        *phi = depth_phi::<L, FAST, true>(a);
     }
     for ((d, a), &phi) in depth.iter_mut().zip(args).zip(phis.iter()) {
         *d = depth_with_tame::<L, FAST, UNIT>(a, phi);
@@ -1789,16 +1798,16 @@ mod tests {
                 e.to_array().map(f32::to_bits),
             )
         };
-        let phi = depth_phi::<f32x8, false>(a);
+        let phi = depth_phi::<f32x8, false, true>(a);
         assert_eq!(
             bits(depth_with_tame::<f32x8, false, UNIT>(a, phi)),
-            bits(depth_with_of::<f32x8, false, false>(a, phi)),
+            bits(depth_with_of::<f32x8, false, true, false>(a, phi)),
             "density stage: {ctx}"
         );
-        let phi = depth_phi::<f32x8, true>(a);
+        let phi = depth_phi::<f32x8, true, true>(a);
         assert_eq!(
             bits(depth_with_tame::<f32x8, true, UNIT>(a, phi)),
-            bits(depth_with_of::<f32x8, true, false>(a, phi)),
+            bits(depth_with_of::<f32x8, true, true, false>(a, phi)),
             "density stage, Fast tier: {ctx}"
         );
     }
@@ -2024,8 +2033,9 @@ mod tests {
             (0.1, 0.0),
             (-0.37, 5.0),
             (1e-30, -1e20),
-            (1_099_511_627_776.0, 1e-19), // 2^40
-            (3.0, 2.168_404_3e-19),       // 2^-62
+            // b·log2(e) just under 2^40 (the base-2 layer's bound of `KIND` 1).
+            (7.62e11, 1e-19),
+            (3.0, 2.168_404_3e-19), // 2^-62
             (1e-12, 3e38),
         ];
         let sigmas = [

@@ -289,6 +289,20 @@ impl Split {
         let (m, e) = crate::math::frexp(x);
         Split { m, e }
     }
+
+    /// A non-negative f64 in f32's normal range or below, the mantissa rounded to f32
+    /// once (a value below 2^-126 keeps 24 bits, where `of(x as f32)` would not).
+    fn of_f64(x: f64) -> Split {
+        if x == 0.0 {
+            return Split::of(0.0);
+        }
+        // f64 is normal here (x ≥ 2^-149·log2(e) at least).
+        let e = ((x.to_bits() >> 52) & 0x7ff) as i32 - 1023;
+        let m = (x * 2f64.powi(-e)) as f32;
+        // m rounded up to 2: the next binade.
+        let (m, e) = if m == 2.0 { (1.0, e + 1) } else { (m, e) };
+        Split { m, e: e as f32 }
+    }
 }
 
 /// One layer's compiled constants: the scalars ([`LayerCore`], `Copy`, so that a kernel
@@ -334,6 +348,36 @@ pub(crate) struct LayerCore {
     /// Fog colour terms that do not depend on the ray direction:
     /// Σ β_s · (L_amb + E_sun / 4π for isotropic components) / β_t.
     pub colour_const: [f32; 3],
+}
+
+impl LayerCore {
+    /// The layer for a depth stage in base 2 (`kernel::Single`): b and σ times log2(e),
+    /// each rounded once from f64. With Δ₂ = Δ·log2(e) and u_min₂ = u_min·log2(e), the
+    /// same arithmetic gives G₂ = m·φ₂(|Δ₂|)·2^(−u_min₂), φ₂(x) = (1 − 2^(−x))/x, which is
+    /// G/log2(e) (φ(|Δ|) = log2(e)·φ₂(|Δ₂|)), so τ = σ₂·G₂. A homogeneous layer (b = 0,
+    /// no exponential) is its own. `None` where b·log2(e) leaves the f32 range. `sigma_t`
+    /// is σ₂ rounded to f32 (not read by the kernels: `sigma` and `shared_scale` keep 24
+    /// bits below 2^-126, and are finite where σ₂ is not).
+    pub(crate) fn base2(&self) -> Option<LayerCore> {
+        if self.b == 0.0 {
+            return Some(*self);
+        }
+        let l2e = core::f64::consts::LOG2_E;
+        let b = (f64::from(self.b) * l2e) as f32;
+        if !b.is_finite() {
+            return None;
+        }
+        let s64 = self.sigma_t.map(|s| f64::from(s) * l2e);
+        Some(LayerCore {
+            h0: self.h0,
+            b,
+            b_split: Split::of(b),
+            sigma: s64.map(Split::of_f64),
+            sigma_t: s64.map(|s| s as f32),
+            shared_scale: shared_scale_f64(s64),
+            colour_const: self.colour_const,
+        })
+    }
 }
 
 /// A validated, compiled scene. Build it with [`Scene::new`]; it cannot be made invalid
@@ -463,6 +507,24 @@ fn shared_scale(sigma: [f32; 3]) -> Option<(f32, [f32; 3])> {
         .zip(sigma)
         .all(|(&x, s)| (x as f64 / scale) as f32 == s);
     (ok && exact).then_some((e, m))
+}
+
+/// [`shared_scale`] for extinctions given in f64 (`LayerCore::base2`): each channel's
+/// mantissa is one rounding of its value, so no exactness test is needed.
+fn shared_scale_f64(sigma: [f64; 3]) -> Option<(f32, [f32; 3])> {
+    let max = sigma.iter().cloned().fold(0.0f64, f64::max);
+    if max == 0.0 {
+        return None;
+    }
+    let e = Split::of_f64(max).e;
+    let scale = 2.0f64.powi(-(e as i32));
+    let m = sigma.map(|s| (s * scale) as f32);
+    // A channel more than 2^16 below the largest fails the range, also where it rounds
+    // to 0 (found by `tests/height_fog.rs`: σ = 1e-45 next to 1e5 gave τ = 0).
+    m.iter()
+        .zip(sigma)
+        .all(|(&x, s)| s == 0.0 || (1.0 / 65536.0..2.0).contains(&x))
+        .then_some((e, m))
 }
 
 impl Scene {

@@ -1166,6 +1166,17 @@ fn ldexp_sweep() {
 const EXP_NEG_FAST_MAX_REL: f64 = 1.5e-5;
 const EXP_SPLIT_FAST_MAX_REL: f64 = 1.5e-5;
 const EXPREL_NEG_FAST_MAX_REL: f64 = 3.5e-5;
+const EXP2_SPLIT_FAST_MAX_REL: f64 = 1.5e-5;
+const EXPREL2_NEG_FAST_MAX_REL: f64 = 3.5e-5;
+
+/// The Fast tier's functions, in the order of [`fast_sweep`]'s results.
+const FAST_NAMES: [&str; 5] = [
+    "exp_neg_fast",
+    "exp_split_fast",
+    "exprel_neg_fast",
+    "exp2_split_fast",
+    "exprel2_neg_fast",
+];
 
 #[derive(Default)]
 struct RelState {
@@ -1206,17 +1217,17 @@ impl RelState {
     }
 }
 
-/// Sweeps the Fast tier's three functions over `ranges` (every `step`-th 8-group of bit
-/// patterns; 1 = all), checks x8 = scalar bit for bit, NaN for NaN, and returns the max
-/// relative errors of (exp_neg_fast, exp_split_fast, exprel_neg_fast) on their domains.
-fn fast_sweep(step: u64) -> [RelState; 3] {
+/// Sweeps the Fast tier's five functions (every `step`-th 8-group of bit patterns; 1 =
+/// all), checks x8 = scalar bit for bit, NaN for NaN, and returns the max relative
+/// errors of [`FAST_NAMES`] on their domains.
+fn fast_sweep(step: u64) -> [RelState; 5] {
     let top = 2f32.powi(11);
     let go = |ranges: BitRanges, k: usize| -> RelState {
         sweep(&ranges, |st: &mut RelState, xs, live| {
             if step > 1 && !(xs[0].to_bits() as u64 / 8).is_multiple_of(step) {
                 return;
             }
-            let name = ["exp_neg_fast", "exp_split_fast", "exprel_neg_fast"][k];
+            let name = FAST_NAMES[k];
             let y: [f64; 8] = match k {
                 0 => x8_and_scalar(
                     xs,
@@ -1227,12 +1238,22 @@ fn fast_sweep(step: u64) -> [RelState; 3] {
                     math::exp_neg_fast,
                 )
                 .map(|v| v as f64),
-                1 => {
-                    let (m, e) = math::exp_split_fast(f32x8::new(xs));
+                1 | 3 => {
+                    let f8: fn(f32x8) -> (f32x8, f32x8) = if k == 1 {
+                        math::exp_split_fast
+                    } else {
+                        math::exp2_split_fast
+                    };
+                    let f: fn(f32) -> (f32, f32) = if k == 1 {
+                        math::exp_split_fast
+                    } else {
+                        math::exp2_split_fast
+                    };
+                    let (m, e) = f8(f32x8::new(xs));
                     let (m, e) = (m.to_array(), e.to_array());
                     let mut out = [0.0; 8];
                     for l in 0..live {
-                        let (ms, es) = math::exp_split_fast(xs[l]);
+                        let (ms, es) = f(xs[l]);
                         st.fails.check(
                             ms.to_bits() == m[l].to_bits() && es.to_bits() == e[l].to_bits(),
                             || format!("{name}({:e}): x8 and scalar differ", xs[l]),
@@ -1242,13 +1263,22 @@ fn fast_sweep(step: u64) -> [RelState; 3] {
                     }
                     out
                 }
-                _ => x8_and_scalar(
+                2 => x8_and_scalar(
                     xs,
                     live,
                     &mut st.fails,
                     name,
                     math::exprel_neg_fast,
                     math::exprel_neg_fast,
+                )
+                .map(|v| v as f64),
+                _ => x8_and_scalar(
+                    xs,
+                    live,
+                    &mut st.fails,
+                    name,
+                    math::exprel2_neg_fast,
+                    math::exprel2_neg_fast,
                 )
                 .map(|v| v as f64),
             };
@@ -1276,7 +1306,21 @@ fn fast_sweep(step: u64) -> [RelState; 3] {
                         st.record(x, (y[l] - xd).exp_m1().abs() + 1.0, 1.0)
                     }
                     1 => {}
-                    _ if x <= top => st.record(x, y[l], -(-xd).exp_m1() / xd),
+                    // ln(m·2^e) − x·ln 2, likewise.
+                    3 if (-1022.0..=1023.0).contains(&xd) => st.record(
+                        x,
+                        (y[l] - xd * std::f64::consts::LN_2).exp_m1().abs() + 1.0,
+                        1.0,
+                    ),
+                    3 => {}
+                    2 if x <= top => st.record(x, y[l], -(-xd).exp_m1() / xd),
+                    4 if x <= top => {
+                        st.record(x, y[l], -(-xd * std::f64::consts::LN_2).exp_m1() / xd)
+                    }
+                    // Above 2^11: 1/x, correctly rounded.
+                    4 => st.fails.check(y[l] == f64::from(1.0 / x), || {
+                        format!("{name}({x:e}) = {:e}, not 1/x", y[l])
+                    }),
                     _ => {}
                 }
             }
@@ -1286,17 +1330,21 @@ fn fast_sweep(step: u64) -> [RelState; 3] {
         go(vec![(0, 0x7fff_ffff)], 0),
         go(all_f32(), 1),
         go(vec![(2f32.powi(-60).to_bits(), 0x7fff_ffff)], 2),
+        go(all_f32(), 3),
+        go(vec![(2f32.powi(-60).to_bits(), 0x7fff_ffff)], 4),
     ]
 }
 
-fn check_fast(st: [RelState; 3]) {
+fn check_fast(st: [RelState; 5]) {
     let bounds = [
         EXP_NEG_FAST_MAX_REL,
         EXP_SPLIT_FAST_MAX_REL,
         EXPREL_NEG_FAST_MAX_REL,
+        EXP2_SPLIT_FAST_MAX_REL,
+        EXPREL2_NEG_FAST_MAX_REL,
     ];
     for (k, (s, b)) in st.into_iter().zip(bounds).enumerate() {
-        let name = ["exp_neg_fast", "exp_split_fast", "exprel_neg_fast"][k];
+        let name = FAST_NAMES[k];
         println!(
             "math::{name:<16} max relative error {:.3e} at x = {:e}",
             s.worst, s.at

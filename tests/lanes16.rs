@@ -133,6 +133,7 @@ fn x16_equals_scalar_for_every_special_function() {
         ("exprel2_neg", one!(math::exprel2_neg)),
         ("exp_neg_fast", one!(math::exp_neg_fast)),
         ("exprel_neg_fast", one!(math::exprel_neg_fast)),
+        ("exprel2_neg_fast", one!(math::exprel2_neg_fast)),
         ("erf", one!(math::erf)),
         ("erfc", one!(math::erfc)),
         ("asinh", one!(math::asinh)),
@@ -141,6 +142,7 @@ fn x16_equals_scalar_for_every_special_function() {
         ("exp_split", two!(math::exp_split)),
         ("exp2_split", two!(math::exp2_split)),
         ("exp_split_fast", two!(math::exp_split_fast)),
+        ("exp2_split_fast", two!(math::exp2_split_fast)),
         ("frexp", two!(math::frexp)),
         // `frexp` but for NaN's mantissa (any): for NaN only the exponent is compared.
         // ±inf must give a finite exponent (AVX-512's getexp gives +inf, which made

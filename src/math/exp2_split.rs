@@ -1,9 +1,8 @@
 //! `exp2_split(y)`: `2^y = m · 2^k` with `m` in [0.70, 1.42] and `k` an integer-valued
 //! float, for any `y`: [`exp_split`](fn@super::exp_split) in base 2, for a depth stage whose
 //! exponents arrive already multiplied by log2(e) (the falloff pre-scaled, as the
-//! framebuffer pass does for its own kernel). Not yet used by a kernel: the one-layer
-//! kernels' depth stage in base 2 is measured as a prototype (docs/speed-history.md, "The
-//! Zen 4 machine, sixth time") and planned.
+//! framebuffer pass does for its own kernel): the density of the one-layer kernels'
+//! depth stage (`medium::height_fog`, `LayerCore::base2`).
 //!
 //! Reduction: `k = round(y)`, `f = y − k` in [−1/2, 1/2], both exact: no multiply by
 //! log2(e) and no Cody–Waite split (three multiplies and FMAs fewer than `exp_split`).

@@ -1,8 +1,7 @@
 //! `exprel2_neg(x) = (1 − 2^−x) / x` for `x ≥ 0`: [`exprel_neg`](fn@super::exprel_neg) in
 //! base 2, the factor φ of the stable optical depth for a depth stage whose |Δ| arrives
-//! multiplied by log2(e) (φ(|Δ|) = log2(e) · exprel2_neg(|Δ|·log2 e)). Not yet used by a
-//! kernel: the one-layer kernels' depth stage in base 2 is measured as a prototype
-//! (docs/speed-history.md, "The Zen 4 machine, sixth time") and planned.
+//! multiplied by log2(e) (φ(|Δ|) = log2(e) · exprel2_neg(|Δ|·log2 e)): the one-layer
+//! kernels' depth stage (`medium::height_fog`, `LayerCore::base2`).
 //!
 //! Reduction: with x clamped to 64 (beyond, 1 − 2^−x is 1 in f32), k = round(−x) and
 //! 2^k from one subtract from [`Lane::round_pow2i`]'s constant, and w = x + k = −f in

@@ -13,12 +13,22 @@
 //!   then flushed to 0 (1.424e-5 with the `(w²)·Q − w + 1` form that `exp_neg` had
 //!   before an earlier change);
 //! - `exp_split_fast(x)` = m·2^k: 1.403e-5 on [−708, 709] (m·2^k against e^x in f64);
-//! - `exprel_neg_fast(x)` = (1 − e^(−x))/x: 3.376e-5 (at x = 0.3466) on [2^-60, 2^11].
+//! - `exprel_neg_fast(x)` = (1 − e^(−x))/x: 3.376e-5 (at x = 0.3466) on [2^-60, 2^11];
+//! - `exp2_split_fast(y)` = m·2^k: 1.402e-5 (at y = 0.5000183) on [−1022, 1023] (m·2^k
+//!   against 2^y);
+//! - `exprel2_neg_fast(x)` = (1 − 2^(−x))/x: 3.381e-5 (at x = 0.4999889) on [2^-60, 2^11],
+//!   1/x correctly rounded above.
+//!
+//! The base-2 pair (for the one-layer kernels' depth stage, whose arguments arrive
+//! multiplied by log2(e)) reduce as their Accurate forms do, `k = round(·)` with an exact
+//! remainder f in [−1/2, 1/2], and evaluate `Q2` at r = f·ln 2 (one rounding, 2^-24
+//! relative, against Q2's 1.4e-5).
 //!
 //! These bounds are what the Fast tier's 1e-4 bounds on T and L_in are built from (see
 //! `Tier`); the NaN, infinity and saturation behaviour is that of the Accurate functions.
 
 use super::exp::{reduce_ln2, LOG2E};
+use super::lane::POW2_MAGIC;
 use super::Lane;
 
 /// ln 2 rounded to f32: the one-term reduction `w = x + k·ln2` is off by at most
@@ -66,5 +76,32 @@ pub fn exprel_neg_fast<L: Lane>(x: L) -> L {
     let w = k.mul_add(L::splat(LN2), xc);
     // e^(−w) − 1 = −w + w²·Q2(−w); e^(−x) = s·(1 + p) with s = 2^k.
     let p = (w * w).mul_sub(q2_signed(w, -1.0), w);
+    s.neg_mul_add(p, L::splat(1.0) - s) / x
+}
+
+/// `2^y` as `(m, k)` with `2^y ≈ m · 2^k`, m in [0.7, 1.42], relative error ≤ 1.5e-5 for
+/// y in [−2^20, 2^20] (clamped beyond): [`exp_split_fast`] in base 2.
+#[inline(always)]
+pub fn exp2_split_fast<L: Lane>(y: L) -> (L, L) {
+    let y = y.clamp(L::splat(-1_048_576.0), L::splat(1_048_576.0));
+    let k = y.round();
+    let r = (y - k) * L::splat(LN2);
+    ((r * r).mul_add(q2_signed(r, 1.0), r) + L::splat(1.0), k)
+}
+
+/// (1 − 2^(−x))/x for x in [2^-60, +inf], relative error ≤ 3.5e-5 on [2^-60, 2^11]:
+/// [`exprel_neg_fast`] in base 2; 1/x correctly rounded from x = 25 on (where
+/// 1 − 2^(−x) rounds to 1).
+#[inline(always)]
+pub fn exprel2_neg_fast<L: Lane>(x: L) -> L {
+    // `minps` with x second: NaN stays NaN.
+    let xc = L::splat(64.0).min(x);
+    // k = round(−xc) in [−64, 0] and s = 2^k, from one difference (as `exprel2_neg`).
+    let t = L::splat(POW2_MAGIC) - xc;
+    let k = t - L::splat(POW2_MAGIC);
+    let s = L::shl23(t);
+    // 2^(−x) = s·2^(−w), w = xc + k in [−1/2, 1/2] exact; 2^(−w) − 1 = −r + r²·Q2(−r).
+    let r = (xc + k) * L::splat(LN2);
+    let p = (r * r).mul_sub(q2_signed(r, -1.0), r);
     s.neg_mul_add(p, L::splat(1.0) - s) / x
 }

@@ -51,7 +51,7 @@ pub use exp_neg::{exp_neg, exp_neg_mul, ExpNegMul};
 pub use expm1::expm1;
 pub use exprel::exprel_neg;
 pub use exprel2::exprel2_neg;
-pub use fast::{exp_neg_fast, exp_split_fast, exprel_neg_fast};
+pub use fast::{exp2_split_fast, exp_neg_fast, exp_split_fast, exprel2_neg_fast, exprel_neg_fast};
 pub use frexp::frexp;
 pub use lane::Lane;
 #[cfg(target_feature = "avx512f")]

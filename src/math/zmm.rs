@@ -476,6 +476,7 @@ mod tests {
             ("exprel2_neg", one!(math::exprel2_neg)),
             ("exp_neg_fast", one!(math::exp_neg_fast)),
             ("exprel_neg_fast", one!(math::exprel_neg_fast)),
+            ("exprel2_neg_fast", one!(math::exprel2_neg_fast)),
             ("erf", one!(math::erf)),
             ("erfc", one!(math::erfc)),
             ("asinh", one!(math::asinh)),
@@ -484,6 +485,7 @@ mod tests {
             ("exp_split", two!(math::exp_split)),
             ("exp2_split", two!(math::exp2_split)),
             ("exp_split_fast", two!(math::exp_split_fast)),
+            ("exp2_split_fast", two!(math::exp2_split_fast)),
             ("frexp", two!(math::frexp)),
             // For NaN only the exponent is compared (the mantissa is any); ±inf must
             // give the finite exponent 128 (see `Lane::frexp_finite`).

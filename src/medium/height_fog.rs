@@ -19,6 +19,14 @@
 //! saturating `ldexp` per channel. t = +∞ is the limit t·φ(b·u·t) → 1/|b·u| (or +∞ when
 //! the segment does not thin out), which falls out of the same arithmetic.
 //!
+//! The one-layer kernels (`kernel::Single`) run the same arithmetic in base 2: with b
+//! and σ0 multiplied by log2(e) ([`LayerCore::base2`], rounded once each from f64), Δ
+//! and u_min arrive multiplied by log2(e), and G₂ = m·φ₂(|Δ₂|)·2^(−u_min₂), with
+//! φ₂(x) = (1 − 2^(−x))/x (`exprel2_neg`) and 2^y (`exp2_split`), is G/log2(e): neither
+//! exponential multiplies by log2(e) nor needs a Cody–Waite split (`B2` below; the
+//! several-media kernel keeps base e). The two roundings add 2⁻²⁴·(1 + |b·y0| + |Δ|)
+//! at most to the relative error of τ, inside the bound below.
+//!
 //! Error: relative error of τ at most 16 · 2⁻²⁴ · (1 + |b·y0| + |Δ|) for an axis-aligned
 //! up vector, tested against the independent f64 reference (`reference::check_sample`,
 //! `tests/height_fog.rs`, `tests/extreme.rs`). With a general up vector the f32 rounding
@@ -31,7 +39,10 @@
 //! that, whether τ saturates to +∞ or to 0 may be wrong (both terms of the dense-end
 //! exponent are beyond the scaled f32 range).
 
-use crate::math::{exp_split, exp_split_fast, exprel_neg, exprel_neg_fast, Lane};
+use crate::math::{
+    exp2_split, exp2_split_fast, exp_split, exp_split_fast, exprel2_neg, exprel2_neg_fast,
+    exprel_neg, exprel_neg_fast, Lane,
+};
 use crate::scene::LayerCore;
 
 /// Per-ray quantities shared by all layers.
@@ -145,7 +156,7 @@ pub(crate) fn direction_norm<L: Lane>(d: [L; 3]) -> ((L, L), [L; 3]) {
 /// exponentials), so that a batch loop can run each over a block of packets.
 #[inline(always)]
 pub(crate) fn layer_depth<L: Lane, const FAST: bool>(layer: &LayerCore, g: &RayGeom<L>) -> (L, L) {
-    depth_of::<L, FAST>(layer, depth_args(layer, g))
+    depth_of::<L, FAST, false>(layer, depth_args(layer, g))
 }
 
 /// The arguments of the two exponentials of [`layer_depth`], and the factors that do
@@ -298,7 +309,7 @@ const SKY_SHIFT_EXP: [f32; 2] = [17.0, 43.0];
 /// from [`depth_args_of`] (tested against it in `kernel::tests`), because the two differ
 /// only by exact powers of two while every intermediate is a normal f32:
 /// - m = n_m·t and e = n_e instead of n_m·t_m and n_e + t_e: the same G = m·φ·e^(−u_min)
-///   scaled by 2^t_e. With φ ≥ 2^-8 (|Δ| < 2^8), e^(−u_min)'s mantissa in [0.66, 1.5]
+///   scaled by 2^t_e. With φ ≥ 2^-8 (|Δ| < 2^8), e^(−u_min)'s mantissa in [0.70, 1.42]
 ///   and a channel's mantissa in [2^-16, 2), |m·φ·e^(−u_min)·σ_m| is in [2^-45, 2^33],
 ///   inside `ldexp`'s precondition [2^-62, 2^39] (and its product with `pow2_pair`'s
 ///   first factor stays normal), so τ is rounded from the same real number;
@@ -315,7 +326,7 @@ const SKY_SHIFT_EXP: [f32; 2] = [17.0, 43.0];
 ///   the scaling to 2^-126, a term below 2^-123 in magnitude, against the FMA's |Δ| below
 ///   2^-60: where |a0s| > 2^-98 (|a0s·2^64| > 2^-34), half an ulp of a0s exceeds the
 ///   first and half an ulp of a0s·2^64 the second, so both sums are a0s; elsewhere both
-///   |u_min| are below 2^-33, where `exp_split` gives exactly (1, ±0) in both. So a tiny
+///   |u_min| are below 2^-33, where `exp2_split` gives exactly (1, ±0) in both. So a tiny
 ///   negative Δ needs no bound of its own, and no product here is subnormal for it (a
 ///   nearly level ray, Δ = −1e-19, sent the whole packet down the general path, and a
 ///   tiny positive one cost a microcode assist on Δ·2^-64; `examples/speedscan.rs`);
@@ -377,18 +388,18 @@ const M_SHIFT_EXP: f32 = 32.0;
 /// - **Far lanes**, finite t with |Δ| in [2^8, 2^90] and |b·u| in [2^-29, 2^29): the
 ///   plain arguments as they are. The general path clamps φ's argument to |dm|·2^8
 ///   (dm = (b_m·u_m)·t_m, rounded as (b·u)·t is: both normal) and moves 2^(8 − e_Δ)
-///   into the exponent; beyond 30 `exprel_neg` is N/x for one constant N, correctly
+///   into the exponent; from 25 on φ (`exprel2_neg`, `exprel2_neg_fast`) is 1/x, correctly
 ///   rounded, so φ(|Δ|) = φ(|dm|·2^8)·2^(8 − e_Δ) exactly (normal: |Δ| ≤ 2^90), and
 ///   m = n_m·t (t ≤ 2^119, so m is finite) carries 2^t_e: the same G·2^e, with
-///   G = m·φ·e^(−u_min) ≈ n_m·e^(−u_min)/|b·u| in [2^-29.6, 2^31.4] (n_m in [1, 2√3):
+///   G = m·φ·e^(−u_min) ≈ n_m·e^(−u_min)/|b·u| in [2^-29.5, 2^31.3] (n_m in [1, 2√3):
 ///   u, so d, is normal; inside `shared_depth`'s [2^-32, 2^32) and, times a channel's
 ///   mantissa, `ldexp`'s precondition). Δ·2^-64 is exact (|Δ| ≥ 2^8).
 /// - **Sky lanes**, t = +∞ and |b·u| in [2^-38, 2^12): the general path has t =
-///   1·2^(2^21), φ's argument |dm|·2^8 with dm = b_m·u_m rounded (≥ 256, where φ = N/x),
+///   1·2^(2^21), φ's argument |dm|·2^8 with dm = b_m·u_m rounded (≥ 256, where φ = 1/x),
 ///   m = n_m and the exponent n_e + 8 − e_b − e_u; here φ's argument is |b·u|·2^k with
 ///   k = 17 (|b·u| ≥ 2^-12) or 43, in [32, 2^31), so φ is the general one times
 ///   2^(8 − k − e_b − e_u) exactly (b·u = dm·2^(e_b + e_u), normal), and the exponent
-///   n_e + k makes up for it. G stays in [2^-31.6, 2^-2.6]. The density's exponent, as
+///   n_e + k makes up for it. G stays in [2^-31.5, 2^-2.7]. The density's exponent, as
 ///   `depth_args_tame` formed it, is the general one: Δ·2^-64 = ±∞ here, where the
 ///   general path has ±|dm|·2^127, so min(Δ·2^-64, 0) is 0 (b·u > 0) or makes u_min −∞
 ///   in both (b·u < 0: |b·y0·2^-64| ≤ 2^104 cannot offset it; then τ = +∞, T = 0).
@@ -476,65 +487,77 @@ pub(crate) fn depth_args_tame_wide<L: Lane>(
 }
 
 /// The second half of [`layer_depth`]: φ(|Δ|) and e^(−u_min), and G assembled.
+///
+/// `B2`: the layer's constants are in base 2 ([`LayerCore::base2`], the one-layer
+/// kernels): φ₂ and 2^(−u_min₂) instead (two multiplies and FMAs fewer each per lane),
+/// and the result is G₂ = G/log2(e).
 #[inline(always)]
-pub(crate) fn depth_of<L: Lane, const FAST: bool>(layer: &LayerCore, a: DepthArgs<L>) -> (L, L) {
-    depth_with::<L, FAST>(layer, &a, depth_phi::<L, FAST>(&a))
+pub(crate) fn depth_of<L: Lane, const FAST: bool, const B2: bool>(
+    layer: &LayerCore,
+    a: DepthArgs<L>,
+) -> (L, L) {
+    depth_with::<L, FAST, B2>(layer, &a, depth_phi::<L, FAST, B2>(&a))
 }
 
-/// φ(|Δ|) of [`depth_of`].
+/// φ(|Δ|) of [`depth_of`] (φ₂ where `B2`).
 #[inline(always)]
-pub(crate) fn depth_phi<L: Lane, const FAST: bool>(a: &DepthArgs<L>) -> L {
-    if FAST {
-        exprel_neg_fast(a.dc)
-    } else {
-        exprel_neg(a.dc)
+pub(crate) fn depth_phi<L: Lane, const FAST: bool, const B2: bool>(a: &DepthArgs<L>) -> L {
+    match (FAST, B2) {
+        (true, true) => exprel2_neg_fast(a.dc),
+        (true, false) => exprel_neg_fast(a.dc),
+        (false, true) => exprel2_neg(a.dc),
+        (false, false) => exprel_neg(a.dc),
+    }
+}
+
+/// The density at the denser end of [`depth_of`] as (m, k), e^(−u_min) = m·2^k (2^(−u_min₂)
+/// where `B2`).
+#[inline(always)]
+fn density<L: Lane, const FAST: bool, const B2: bool>(a: &DepthArgs<L>) -> (L, L) {
+    match (FAST, B2) {
+        (true, true) => exp2_split_fast(a.neg_u_min),
+        (true, false) => exp_split_fast(a.neg_u_min),
+        (false, true) => exp2_split(a.neg_u_min),
+        (false, false) => exp_split(a.neg_u_min),
     }
 }
 
 /// The rest of [`depth_of`], given `phi` from [`depth_phi`].
 #[inline(always)]
-pub(crate) fn depth_with<L: Lane, const FAST: bool>(
+pub(crate) fn depth_with<L: Lane, const FAST: bool, const B2: bool>(
     layer: &LayerCore,
     a: &DepthArgs<L>,
     phi: L,
 ) -> (L, L) {
     if layer.b == 0.0 {
-        depth_with_of::<L, FAST, true>(a, phi)
+        depth_with_of::<L, FAST, B2, true>(a, phi)
     } else {
-        depth_with_of::<L, FAST, false>(a, phi)
+        depth_with_of::<L, FAST, B2, false>(a, phi)
     }
 }
 
-/// [`depth_with_of`]`::<L, FAST, false>` for arguments from [`depth_args_tame`] (guard 0;
-/// exponent −0 where `UNIT`, the exponent of |d| = 1), with the same bits: m·φ·e^(−u_min)
-/// is positive, so adding the guard +0 changes nothing, nor does adding −0 to the
-/// exponent.
+/// [`depth_with_of`]`::<L, FAST, true, false>` for arguments from [`depth_args_tame`]
+/// (guard 0; exponent −0 where `UNIT`, the exponent of |d| = 1), with the same bits:
+/// m·φ·2^(−u_min₂) is positive, so adding the guard +0 changes nothing, nor does adding
+/// −0 to the exponent. Base 2 only: the one-layer kernels are its only callers.
 #[inline(always)]
 pub(crate) fn depth_with_tame<L: Lane, const FAST: bool, const UNIT: bool>(
     a: &DepthArgs<L>,
     phi: L,
 ) -> (L, L) {
-    let (em, ek) = if FAST {
-        exp_split_fast(a.neg_u_min)
-    } else {
-        exp_split(a.neg_u_min)
-    };
+    let (em, ek) = density::<L, FAST, true>(a);
     (a.m * phi * em, if UNIT { ek } else { a.e + ek })
 }
 
 /// [`depth_with`] for a homogeneous layer (`HOMOGENEOUS`, b = 0) or not.
 #[inline(always)]
-pub(crate) fn depth_with_of<L: Lane, const FAST: bool, const HOMOGENEOUS: bool>(
+pub(crate) fn depth_with_of<L: Lane, const FAST: bool, const B2: bool, const HOMOGENEOUS: bool>(
     a: &DepthArgs<L>,
     phi: L,
 ) -> (L, L) {
     if HOMOGENEOUS {
         return (a.m + a.guard, a.e);
     }
-    let (em, ek) = if FAST {
-        exp_split_fast(a.neg_u_min)
-    } else {
-        exp_split(a.neg_u_min)
-    };
+    let (em, ek) = density::<L, FAST, B2>(a);
     (a.m * phi * em + a.guard, a.e + ek)
 }

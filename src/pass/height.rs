@@ -421,7 +421,7 @@ impl HeightPass {
         if single.n_phases > MAX_PHASES {
             return None;
         }
-        let layer = single.layer;
+        let layer = single.natural;
         // For an axis, up = e_i (dot(d, up) = d[i]).
         let (up, axis) = match scene.axis {
             UpAxis::Axis(i) => {
