@@ -491,26 +491,17 @@ fn compile_limits(l: &FogLimits) -> Result<LimitsPlan, SceneError> {
 
 /// See [`LayerCore::shared_scale`].
 fn shared_scale(sigma: [f32; 3]) -> Option<(f32, [f32; 3])> {
-    let max = sigma.iter().cloned().fold(0.0f32, f32::max);
-    if max == 0.0 {
-        return None;
-    }
-    let e = Split::of(max).e;
-    let scale = 2.0f64.powi(-(e as i32));
-    let m = sigma.map(|s| (s as f64 * scale) as f32);
-    let ok = m
-        .iter()
-        .all(|&x| x == 0.0 || (1.0 / 65536.0..2.0).contains(&x));
+    let (e, m) = shared_scale_f64(sigma.map(f64::from))?;
     // The division by a power of two must be exact (no subnormal channel values).
-    let exact = m
-        .iter()
+    let scale = 2.0f64.powi(-(e as i32));
+    m.iter()
         .zip(sigma)
-        .all(|(&x, s)| (x as f64 / scale) as f32 == s);
-    (ok && exact).then_some((e, m))
+        .all(|(&x, s)| (x as f64 / scale) as f32 == s)
+        .then_some((e, m))
 }
 
-/// [`shared_scale`] for extinctions given in f64 (`LayerCore::base2`): each channel's
-/// mantissa is one rounding of its value, so no exactness test is needed.
+/// [`shared_scale`] for extinctions given in f64 (`LayerCore::base2`; no exactness test:
+/// each channel's mantissa is one rounding of its value).
 fn shared_scale_f64(sigma: [f64; 3]) -> Option<(f32, [f32; 3])> {
     let max = sigma.iter().cloned().fold(0.0f64, f64::max);
     if max == 0.0 {
