@@ -190,8 +190,8 @@ pub(crate) struct Single {
 }
 
 impl Single {
-    /// `None` unless [`is_single_layer`] and the layer has a base-2 form (|b| below
-    /// f32::MAX/log2(e); beyond, the general kernel).
+    /// `None` unless [`is_single_layer`] and the layer has a base-2 form (b = 0, or
+    /// b·log2(e) a normal f32; otherwise the general kernel).
     #[inline(always)]
     pub(crate) fn of(scene: &Scene) -> Option<Single> {
         if !is_single_layer(scene) {

@@ -355,7 +355,10 @@ impl LayerCore {
     /// each rounded once from f64. With Δ₂ = Δ·log2(e) and u_min₂ = u_min·log2(e), the
     /// same arithmetic gives G₂ = m·φ₂(|Δ₂|)·2^(−u_min₂), φ₂(x) = (1 − 2^(−x))/x, which is
     /// G/log2(e) (φ(|Δ|) = log2(e)·φ₂(|Δ₂|)), so τ = σ₂·G₂. A homogeneous layer (b = 0,
-    /// no exponential) is its own. `None` where b·log2(e) leaves the f32 range. `sigma_t`
+    /// no exponential) is its own. `None` where b·log2(e) is not a normal f32: beyond the
+    /// range, or below 2^-126, where its rounding would not be relative (b = 1e-45 would
+    /// lose 31 %, which a ray with |Δ| ≫ 1 from a huge non-unit direction turns into
+    /// the error of τ). `sigma_t`
     /// is σ₂ rounded to f32 (not read by the kernels: `sigma` and `shared_scale` keep 24
     /// bits below 2^-126, and are finite where σ₂ is not).
     pub(crate) fn base2(&self) -> Option<LayerCore> {
@@ -364,7 +367,7 @@ impl LayerCore {
         }
         let l2e = core::f64::consts::LOG2_E;
         let b = (f64::from(self.b) * l2e) as f32;
-        if !b.is_finite() {
+        if !b.is_normal() {
             return None;
         }
         let s64 = self.sigma_t.map(|s| f64::from(s) * l2e);

@@ -1111,3 +1111,38 @@ fn extreme_families_x8_equals_scalar_and_reference() {
         }
     }
 }
+
+/// Falloffs whose base-2 form b·log2(e) would be subnormal in f32 (`LayerCore::base2`
+/// sends them to the general kernel; rounded there, b = 1e-45 lost 31 %), and normal
+/// ones near that edge, with non-unit directions of 1e30 and segments long enough that
+/// |Δ| runs from 0.3 to 300: every path within the reference's bound.
+#[test]
+fn subnormal_falloffs_with_long_rays() {
+    let s = 1e30f32;
+    for b in [
+        1e-45f32, -1e-45, 3e-42, -7e-40, 1.1e-38, 9e-39, 1.2e-38, -1e-37,
+    ] {
+        let mut desc = reference::peer::scene_desc();
+        desc.height_fog[0].falloff = b;
+        // σ in proportion to |b| (subnormal with it), so that τ ≈ 2.5·|Δ|·φ(|Δ|) stays
+        // in range along segments of |d|·t = |Δ/(b·u)|.
+        for c in &mut desc.height_fog[0].components {
+            c.scattering = Vec3::new(2.0, 3.0, 5.0) * b.abs();
+            c.absorption = Vec3::ZERO;
+        }
+        let sc = Scene::new(desc.clone()).unwrap();
+        let mut rays: Vec<Ray> = Vec::new();
+        for delta in [0.3f32, 3.0, 30.0, 300.0] {
+            for dy in [-0.8f32, 0.8] {
+                for h in [-2.0f32, 0.0, 5.0] {
+                    let t = delta / (b.abs() * 0.8 * s);
+                    rays.push((Vec3::new(0.0, h, 0.0), Vec3::new(0.6, dy, 0.0) * s, t));
+                }
+            }
+        }
+        for path in [Path::X8, Path::X8Narrow, Path::Scalar] {
+            let out = eval(&sc, &rays, false, path, [true; 3]);
+            check_batch(&desc, &rays, &out).unwrap_or_else(|e| panic!("b = {b:e}: {e}"));
+        }
+    }
+}
