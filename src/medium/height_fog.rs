@@ -24,8 +24,9 @@
 //! and u_min arrive multiplied by log2(e), and G₂ = m·φ₂(|Δ₂|)·2^(−u_min₂), with
 //! φ₂(x) = (1 − 2^(−x))/x (`exprel2_neg`) and 2^y (`exp2_split`), is G/log2(e): neither
 //! exponential multiplies by log2(e) nor needs a Cody–Waite split (`B2` below; the
-//! several-media kernel keeps base e). The two roundings add 2⁻²⁴·(1 + |b·y0| + |Δ|)
-//! at most to the relative error of τ, inside the bound below.
+//! several-media kernel keeps base e). The two roundings add at most about
+//! 2⁻²⁴·(2 + |b·y0| + |Δ|) to the relative error of τ (σ's directly; b's through
+//! u_min, and through φ, whose relative change is at most Δ's), inside the bound below.
 //!
 //! Error: relative error of τ at most 16 · 2⁻²⁴ · (1 + |b·y0| + |Δ|) for an axis-aligned
 //! up vector, tested against the independent f64 reference (`reference::check_sample`,
@@ -489,8 +490,8 @@ pub(crate) fn depth_args_tame_wide<L: Lane>(
 /// The second half of [`layer_depth`]: φ(|Δ|) and e^(−u_min), and G assembled.
 ///
 /// `B2`: the layer's constants are in base 2 ([`LayerCore::base2`], the one-layer
-/// kernels): φ₂ and 2^(−u_min₂) instead (two multiplies and FMAs fewer each per lane),
-/// and the result is G₂ = G/log2(e).
+/// kernels): φ₂ and 2^(−u_min₂) instead (two and three multiplies and FMAs fewer per
+/// lane: `exprel2_neg`, `exp2_split`), and the result is G₂ = G/log2(e).
 #[inline(always)]
 pub(crate) fn depth_of<L: Lane, const FAST: bool, const B2: bool>(
     layer: &LayerCore,
