@@ -1146,3 +1146,65 @@ fn subnormal_falloffs_with_long_rays() {
         }
     }
 }
+
+/// Long batches whose stretches switch between rays that no packet's tame test accepts
+/// (sky, segments of 1e10 and 1e-8, in every packet) and typical rays, in stretches of
+/// 1 to 1500 rays: the batch kernel skips the tame test for a few blocks after a block
+/// with no tame packet on AVX-512 lanes (`kernel::SKIP_TAME_BLOCKS`), and every path
+/// must still give the scalar path's bits, for every output and both direction forms.
+#[test]
+fn stretches_of_extreme_and_typical_rays_give_the_scalar_bits() {
+    let desc = reference::peer::scene_desc();
+    let sc = Scene::new(desc).unwrap();
+    let mut rays: Vec<Ray> = Vec::new();
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut uni = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    for (stretch, extreme) in [
+        (1500, true),
+        (700, false),
+        (300, true),
+        (1, false),
+        (1100, true),
+        (4000, false),
+        (257, true),
+        (999, false),
+    ] {
+        for i in 0..stretch {
+            let dy = uni() * 1.8 - 0.9;
+            let d = Vec3::new((1.0 - dy * dy).sqrt(), dy, 0.0);
+            let o = Vec3::new(0.0, 2.0 + 20.0 * uni(), 0.0);
+            let t = match (extreme, i % 3) {
+                (false, _) => 1.0 + 300.0 * uni(),
+                (true, 0) => f32::INFINITY,
+                (true, 1) => 1e10 * (1.0 + uni()),
+                (true, _) => 1e-8 * (1.0 + uni()),
+            };
+            rays.push((o, d, t));
+        }
+    }
+    for unit in [true, false] {
+        let want = [true; 3];
+        let scalar = eval(&sc, &rays, unit, Path::Scalar, want);
+        for path in [Path::X8, Path::X8Narrow, Path::Par] {
+            let out = eval(&sc, &rays, unit, path, want);
+            for (k, (o, s)) in out
+                .iter()
+                .flatten()
+                .zip(scalar.iter().flatten())
+                .enumerate()
+            {
+                for (i, (a, b)) in o.iter().zip(s).enumerate() {
+                    assert!(
+                        a.to_bits() == b.to_bits(),
+                        "{path:?}, unit {unit}, output {k}, ray {i}: {a:e} against scalar {b:e}"
+                    );
+                }
+            }
+        }
+    }
+}
