@@ -161,6 +161,37 @@ fn x16_equals_scalar_for_every_special_function() {
                 },
             ),
         ),
+        // The generic form's values for both of `RayGeom::new`'s ranges; for NaN only
+        // that the exponent is in [lo, hi].
+        (
+            "frexp_clamped",
+            [(-151.0f32, 2_097_152.0f32), (-8_388_608.0, 128.0)]
+                .iter()
+                .map(|&(lo, hi)| {
+                    mismatches(
+                        "frexp_clamped",
+                        |x| {
+                            let (a, b) = x.frexp_clamped(lo, hi);
+                            let ok = b.ge(f32x16::splat(lo)) & b.le(f32x16::splat(hi));
+                            let nan_e = Lane::select(ok, f32x16::splat(0.0), f32x16::splat(1.0));
+                            let num = x.eq(x);
+                            [
+                                Lane::select(num, a, f32x16::splat(0.0)),
+                                Lane::select(num, b, nan_e),
+                            ]
+                        },
+                        |x| {
+                            let (a, b) = Lane::frexp_clamped(x, lo, hi);
+                            if x.is_nan() {
+                                [0.0, 0.0]
+                            } else {
+                                [a, b]
+                            }
+                        },
+                    )
+                })
+                .sum(),
+        ),
         // Ties to even (wide 1's `f32x16::round` rounds ties away from zero).
         ("round", one!(Lane::round)),
         ("sqrt", one!(Lane::sqrt)),

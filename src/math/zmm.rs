@@ -296,6 +296,23 @@ impl Lane for Zmm {
         let e = Zmm::select(zero, Zmm::splat(-151.0), e).min(Zmm::splat(128.0));
         (Zmm::select(zero, Zmm::splat(0.0), m), e)
     }
+    /// getexp's −inf (±0) and +inf (±inf) clamped to `lo` and `hi` by `maxps` and
+    /// `minps`; NaN, their first operand, becomes `lo` (they return the second operand
+    /// for a NaN one).
+    #[inline(always)]
+    fn frexp_clamped(self, lo: f32, hi: f32) -> (Self, Self) {
+        let (e, m) = unsafe {
+            (
+                Zmm(_mm512_getexp_ps(self.0)),
+                Zmm(_mm512_getmant_ps::<_MM_MANT_NORM_1_2, _MM_MANT_SIGN_SRC>(
+                    self.0,
+                )),
+            )
+        };
+        let zero = self.eq(Zmm::splat(0.0));
+        let e = e.max(Zmm::splat(lo)).min(Zmm::splat(hi));
+        (Zmm::select(zero, Zmm::splat(0.0), m), e)
+    }
     #[inline(always)]
     fn frexp(self) -> (Self, Self) {
         let (m, e) = self.frexp_finite();
@@ -502,6 +519,37 @@ mod tests {
                         [if x.is_nan() { 0.0 } else { a }, b]
                     },
                 ),
+            ),
+            // The generic form's values (scalar `f32`) for both of `RayGeom::new`'s
+            // ranges; for NaN only that the exponent is in [lo, hi].
+            (
+                "frexp_clamped",
+                [(-151.0f32, 2_097_152.0f32), (-8_388_608.0, 128.0)]
+                    .iter()
+                    .map(|&(lo, hi)| {
+                        mismatches(
+                            "frexp_clamped",
+                            |x| {
+                                let (a, b) = x.frexp_clamped(lo, hi);
+                                let ok = b.ge(Zmm::splat(lo)) & b.le(Zmm::splat(hi));
+                                let nan_e = Zmm::select(ok, Zmm::splat(0.0), Zmm::splat(1.0));
+                                let num = x.eq(x);
+                                [
+                                    Zmm::select(num, a, Zmm::splat(0.0)),
+                                    Zmm::select(num, b, nan_e),
+                                ]
+                            },
+                            |x| {
+                                let (a, b) = Lane::frexp_clamped(x, lo, hi);
+                                if x.is_nan() {
+                                    [0.0, 0.0]
+                                } else {
+                                    [a, b]
+                                }
+                            },
+                        )
+                    })
+                    .sum(),
             ),
             ("round", one!(Lane::round)),
             ("sqrt", one!(Lane::sqrt)),

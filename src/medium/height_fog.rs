@@ -53,10 +53,10 @@ pub(crate) struct RayGeom<L> {
     pub y: L,
     /// dot(o, up) · 2^-64, which does not overflow.
     pub y_s: L,
-    /// frexp of u = dot(d, up) (u = 0 gives e = U_ZERO_EXPONENT).
+    /// frexp of u = dot(d, up) (u = 0 gives e = U_ZERO_EXPONENT + u_shift).
     pub u_m: L,
     pub u_e: L,
-    /// frexp of t (t = +∞ gives m = 1, e = INF_EXPONENT).
+    /// frexp of t (t = ±∞ gives m = ±1, e = INF_EXPONENT).
     pub t_m: L,
     pub t_e: L,
     /// |d| = n_m · 2^n_e.
@@ -92,15 +92,17 @@ impl<L: Lane> RayGeom<L> {
     /// `t`: segment end; `norm`: (n_m, n_e) of |d|.
     #[inline(always)]
     pub(crate) fn new(y: L, y_s: L, u: L, u_shift: L, t: L, norm: (L, L)) -> RayGeom<L> {
-        // `frexp_finite`: the guard below makes every output of a ray with a non-finite u
+        // `frexp_clamped`: the guard below makes every output of a ray with a non-finite u
         // or t NaN, and t = +∞ gets its own exponent. Every exponent stays finite, so
         // that the guard's NaN survives `ldexp` (`vscalefps` in AVX-512 builds gives a
         // number for NaN · 2^±inf).
-        let (u_m, u_e) = u.frexp_finite();
+        // (`frexp_clamped`: AVX-512 clamps getexp's ±inf to these exponents in two
+        // instructions.) u = 0 gets U_ZERO_EXPONENT + u_shift (|u_shift| ≤ 2^8: still far
+        // below every other exponent, so the same results as U_ZERO_EXPONENT itself), t =
+        // −inf INF_EXPONENT (its guard is NaN).
+        let (u_m, u_e) = u.frexp_clamped(U_ZERO_EXPONENT, 128.0);
         let u_e = u_e + u_shift;
-        let u_e = L::select(u.eq(L::splat(0.0)), L::splat(U_ZERO_EXPONENT), u_e);
-        let (t_m, t_e) = t.frexp_finite();
-        let t_e = L::select(t.eq(L::splat(f32::INFINITY)), L::splat(INF_EXPONENT), t_e);
+        let (t_m, t_e) = t.frexp_clamped(-151.0, INF_EXPONENT);
         // u - u is NaN exactly when u is not finite, y_s - y_s when the origin's height is
         // not (NaN or ±inf in a component of o that the height reads; y_s cannot overflow
         // for a finite o), n_m - n_m when |d| is not (±inf in any component of d). Without
