@@ -92,14 +92,13 @@ impl<L: Lane> RayGeom<L> {
     /// `t`: segment end; `norm`: (n_m, n_e) of |d|.
     #[inline(always)]
     pub(crate) fn new(y: L, y_s: L, u: L, u_shift: L, t: L, norm: (L, L)) -> RayGeom<L> {
-        // `frexp_clamped`: the guard below makes every output of a ray with a non-finite u
-        // or t NaN, and t = +∞ gets its own exponent. Every exponent stays finite, so
-        // that the guard's NaN survives `ldexp` (`vscalefps` in AVX-512 builds gives a
-        // number for NaN · 2^±inf).
-        // (`frexp_clamped`: AVX-512 clamps getexp's ±inf to these exponents in two
-        // instructions.) u = 0 gets U_ZERO_EXPONENT + u_shift (|u_shift| ≤ 2^8: still far
-        // below every other exponent, so the same results as U_ZERO_EXPONENT itself), t =
-        // −inf INF_EXPONENT (its guard is NaN).
+        // `frexp_clamped` (on AVX-512 two instructions clamp getexp's ±inf): the guard
+        // below makes every output of a ray with a non-finite u or t NaN, and t = +∞ gets
+        // its own exponent (t = −inf too: its guard is NaN), u = 0 U_ZERO_EXPONENT +
+        // u_shift (|u_shift| ≤ 2^8: still far below every other exponent, so the same
+        // results as U_ZERO_EXPONENT itself). Every exponent stays finite, so that the
+        // guard's NaN survives `ldexp` (`vscalefps` in AVX-512 builds gives a number for
+        // NaN · 2^±inf).
         let (u_m, u_e) = u.frexp_clamped(U_ZERO_EXPONENT, 128.0);
         let u_e = u_e + u_shift;
         let (t_m, t_e) = t.frexp_clamped(-151.0, INF_EXPONENT);
