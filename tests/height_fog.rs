@@ -1151,11 +1151,12 @@ fn subnormal_falloffs_with_long_rays() {
 /// (sky, segments of 1e10 and 1e-8, in every packet) and typical rays, in stretches of
 /// 1 to 1500 rays: the batch kernel skips the tame test for a few blocks after a block
 /// with no tame packet on AVX-512 lanes (`kernel::SKIP_TAME_BLOCKS`), and every path
-/// must still give the scalar path's bits, for every output and both direction forms.
+/// must still give the scalar path's bits, for every output and both direction forms
+/// (and the scalar path the f64 reference's values within the stated bound).
 #[test]
 fn stretches_of_extreme_and_typical_rays_give_the_scalar_bits() {
     let desc = reference::peer::scene_desc();
-    let sc = Scene::new(desc).unwrap();
+    let sc = Scene::new(desc.clone()).unwrap();
     let mut rays: Vec<Ray> = Vec::new();
     let mut state = 0x2545_f491_4f6c_dd1du64;
     let mut uni = || {
@@ -1190,6 +1191,8 @@ fn stretches_of_extreme_and_typical_rays_give_the_scalar_bits() {
     for unit in [true, false] {
         let want = [true; 3];
         let scalar = eval(&sc, &rays, unit, Path::Scalar, want);
+        // The scalar results themselves against the f64 reference.
+        check_batch(&desc, &rays, &scalar).unwrap_or_else(|e| panic!("unit {unit}: {e}"));
         for path in [Path::X8, Path::X8Narrow, Path::Par] {
             let out = eval(&sc, &rays, unit, path, want);
             for (k, (o, s)) in out
