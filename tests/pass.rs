@@ -1648,3 +1648,63 @@ fn own_kernel_eye_far_above_the_fog() {
     // Saturated and vanishing fog both occur.
     assert!(counts[0] > 50 && counts[1] > 50, "{counts:?}");
 }
+
+/// A NaN depth gives NaN fog in the own kernel too, at every position of a packet and in
+/// a row's tail, and its neighbours stay finite (AVX-512 lanes turn a NaN y' into ±TINY;
+/// the NaN reaches the pixel through n·t), in every colour layout and depth convention.
+#[test]
+fn own_kernel_nan_depth_gives_nan_fog() {
+    let (w, h) = (37, 3);
+    let desc = sunlit_layer(
+        0.1,
+        Vec3::ZERO,
+        Component {
+            scattering: Vec3::new(0.02, 0.03, 0.05),
+            absorption: Vec3::ZERO,
+            phase: Phase::HenyeyGreenstein(0.6),
+        },
+    );
+    let scene = Scene::new(desc).unwrap();
+    let cam =
+        Camera::perspective(Vec3::new(0.0, 2.0, 0.0), Vec3::NEG_Z, Vec3::Y, 1.0, 2.0).unwrap();
+    let n = w * h;
+    let nan_at = |i: usize| i.is_multiple_of(5) || i % w == w - 1;
+    for conv in [
+        DepthConvention::LinearView,
+        DepthConvention::Distance,
+        DepthConvention::NdcZeroToOne {
+            near: 0.1,
+            far: 1000.0,
+            reversed: true,
+        },
+    ] {
+        assert!(scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap());
+        let depth: Vec<f32> = (0..n)
+            .map(|i| if nan_at(i) { f32::NAN } else { 0.5 })
+            .collect();
+        let d = Depth {
+            values: &depth,
+            convention: conv,
+        };
+        let mut rgb = vec![0.25f32; 3 * n];
+        scene
+            .fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut rgb))
+            .unwrap();
+        let mut planes = [vec![0.25f32; n], vec![0.25; n], vec![0.25; n]];
+        let [r, g, b] = &mut planes;
+        scene
+            .fog_pass_single(&cam, w, h, d, ColourBuffer::Planar([r, g, b]))
+            .unwrap();
+        for i in 0..n {
+            for c in 0..3 {
+                for v in [rgb[3 * i + c], planes[c][i]] {
+                    assert_eq!(
+                        v.is_nan(),
+                        nan_at(i),
+                        "{conv:?}, pixel {i}, channel {c}: {v}"
+                    );
+                }
+            }
+        }
+    }
+}

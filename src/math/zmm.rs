@@ -143,6 +143,16 @@ impl Zmm {
         Zmm(unsafe { _mm512_rcp14_ps(self.0) })
     }
 
+    /// |self| raised to at least `b` (positive), with the sign of `self` (`vrangeps`:
+    /// imm8[1:0] = 11, the larger magnitude; imm8[3:2] = 00, the sign of the first
+    /// source, `self`; 01 would take the sign of the value chosen): one instruction for an
+    /// and, a compare and a blend. A NaN lane gives ±`b`, not NaN (`vrangeps` returns
+    /// the other operand where one is a quiet NaN).
+    #[inline(always)]
+    pub(crate) fn max_magnitude(self, b: Zmm) -> Zmm {
+        Zmm(unsafe { _mm512_range_ps::<0b0011>(self.0, b.0) })
+    }
+
     /// Lanes 8h to 8h + 7 (`h` is 0 or 1).
     #[inline(always)]
     pub(crate) fn half(self, h: usize) -> wide::f32x8 {

@@ -133,20 +133,46 @@ impl PhaseTerm {
         }
     }
 
+    /// (α + β)·base^(−3/2): p = (α + β·c²)·q^(−3/2) with q ≥ base and c² ≤ 1, so the
+    /// exact p is at most this, and [`PhaseTerm::eval`] exceeds it by its roundings only
+    /// (1/√q within about 4·2⁻²⁴, c² within a few 2⁻²⁴; the test
+    /// `phase_values_stay_below_the_peak_bound` checks it at and around the peaks).
+    fn peak(&self) -> f64 {
+        (f64::from(self.alpha) + f64::from(self.beta)) * f64::from(self.base).powf(-1.5)
+    }
+
     /// p for the view directions `d · inv_n` (unit); `beta`: whether any term of the
     /// frame has β ≠ 0 (else c is not formed).
     #[inline(always)]
     fn eval<W: PassLane>(&self, d: [W; 3], inv_n: W, beta: bool) -> W {
+        let (w, c) = self.prepare(d, inv_n, beta);
+        self.finish(w, c, beta)
+    }
+
+    /// The view direction's part of [`PhaseTerm::eval`]: v + w (v = d·inv_n) and, where
+    /// `beta`, c = dot(d, s)·inv_n (else 0).
+    #[inline(always)]
+    fn prepare<W: PassLane>(&self, d: [W; 3], inv_n: W, beta: bool) -> ([W; 3], W) {
         let w = [
             d[0].mul_add(inv_n, W::splat(self.w[0])),
             d[1].mul_add(inv_n, W::splat(self.w[1])),
             d[2].mul_add(inv_n, W::splat(self.w[2])),
         ];
+        let c = if beta {
+            crate::light::dot3(d, self.s) * inv_n
+        } else {
+            W::splat(0.0)
+        };
+        (w, c)
+    }
+
+    /// The rest of [`PhaseTerm::eval`] from [`PhaseTerm::prepare`]'s values.
+    #[inline(always)]
+    fn finish<W: PassLane>(&self, w: [W; 3], c: W, beta: bool) -> W {
         let m = w[0].mul_add(w[0], w[1].mul_add(w[1], w[2] * w[2]));
         let r = rsqrt(m.mul_add(W::splat(self.gg), W::splat(self.base)));
         let mut a = W::splat(self.alpha);
         if beta {
-            let c = crate::light::dot3(d, self.s) * inv_n;
             a = (c * c).mul_add(W::splat(self.beta), a);
         }
         a * r * (r * r)
@@ -218,6 +244,16 @@ pub(crate) trait PassLane: Lane {
     #[inline(always)]
     fn quotient(num: Self, den: Self) -> Self {
         num / den
+    }
+    /// y' kept away from 0 for the quotient exp2m1(y')/y': |y'| < [`TINY`] becomes
+    /// ±TINY, where E(Δ) = 1 in f32 for either sign (an and, a compare and a blend, which
+    /// give +TINY and keep NaN; on AVX-512 lanes one `vrangeps`, which keeps y's sign
+    /// (the same E, so the same bits) and turns NaN into ±TINY: a NaN y' comes from a
+    /// NaN t, and the factor n·t carries that NaN into g' all the same).
+    #[inline(always)]
+    fn away_from_zero(y: Self) -> Self {
+        let tiny = Self::splat(TINY);
+        <Self as Lane>::select(Lane::lt(Lane::abs(y), tiny), tiny, y)
     }
     /// The `h`-th piece of 8 lanes (lanes 8h to 8h + 7; `h < LANES / 8`).
     fn part(self, h: usize) -> f32x8;
@@ -348,6 +384,10 @@ impl PassLane for crate::math::zmm::Zmm {
         refined_quotient(num, den, den.rcp14())
     }
     #[inline(always)]
+    fn away_from_zero(y: Self) -> Self {
+        y.max_magnitude(Self::splat(TINY))
+    }
+    #[inline(always)]
     fn part(self, h: usize) -> f32x8 {
         self.half(h)
     }
@@ -386,6 +426,10 @@ pub(crate) struct HeightPass {
     n_phases: usize,
     /// Some phase term has β ≠ 0 (Rayleigh, Cornette–Shanks).
     beta: bool,
+    /// The fog colour with at most one phase function, `colour + p·k` for every value
+    /// the phase function takes, stays below f32::MAX: its clamp ([`clamp_colour`]) can
+    /// be left out (three operations per packet in the third stage).
+    colour_bounded: bool,
     grey: bool,
     fast: bool,
     /// The depth conversion: [`LINEAR`], [`DISTANCE`] or [`NDC`] with its constants.
@@ -515,6 +559,21 @@ impl HeightPass {
             }
             n_phases = single.n_phases;
         }
+        // The phase value is below twice `PhaseTerm::peak` (a margin far above its
+        // roundings).
+        let colour_bounded = {
+            let p_max = if n_phases >= 1 {
+                2.0 * phases[0].peak()
+            } else {
+                0.0
+            };
+            let k_phase = if n_phases >= 1 { phases[0].k } else { [0.0; 3] };
+            (0..3).all(|j| {
+                let c =
+                    f64::from(layer.colour_const[j]).abs() + f64::from(k_phase[j]).abs() * p_max;
+                c <= 1e38
+            })
+        };
         Some(HeightPass {
             grey: k[0] == k[1] && k[1] == k[2],
             k,
@@ -526,6 +585,7 @@ impl HeightPass {
             phases,
             n_phases,
             beta: phases.iter().any(|p| p.beta != 0.0),
+            colour_bounded,
             fast: scene.tier == Tier::Fast,
             depth,
             ndc,
@@ -758,6 +818,17 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
         }
     }
     let trans = trans::<W, FAST>;
+    // The colour's clamp, left out where the frame bounds it (`HeightPass::colour_bounded`;
+    // the same bits either way).
+    #[inline(always)]
+    fn clamp_unless<W: PassLane>(bounded: bool, c: W) -> W {
+        if bounded {
+            c
+        } else {
+            clamp_colour(c)
+        }
+    }
+    let bounded = hp.colour_bounded;
     let zero = W::splat(0.0);
     let n_lanes = W::LANES;
     let m = depth.len() / n_lanes;
@@ -788,17 +859,34 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     // `FramePlan::ray` forms from x0 + k.
     let x_first = W::splat(x_start as f32) + W::lane_x();
     let mut xs = x_first;
-    for (((dv, y), g), p) in depth
+    let mut x = x_start;
+    for ((((dv, y), g), p), cw) in depth
         .chunks_exact(n_lanes)
         .zip(ys.iter_mut())
         .zip(gs.iter_mut())
         .zip(ps.iter_mut())
+        .zip(colours.iter_mut())
     {
+        // The colour the third stage reads and writes, asked for now (in the full frame
+        // that stage otherwise waited on it: README "Speed of the pass").
+        out.prefetch(x, n_lanes);
+        // And the depth of the next block (the next row's where this is the row's last).
+        super::prefetch_read(dv.as_ptr().wrapping_add(BLOCK * n_lanes));
+        x += n_lanes;
         let d = direction(plan, rp, xs);
         let (yv, nt, inv_n) = geometry(hp, d, W::load(dv));
         *y = yv;
         *g = nt;
-        if PH > 0 {
+        if PH == 1 {
+            // The phase function's view-dependent inputs for the phase loop below, in
+            // the buffers it then overwrites (`colours` is otherwise unused with one
+            // phase function).
+            let (w, c) = hp.phases[0].prepare(d, inv_n, hp.beta);
+            *cw = w;
+            if hp.beta {
+                *p = c;
+            }
+        } else if PH > 1 {
             // 1/|d| for the phase loop below (which then overwrites it).
             *p = inv_n;
         }
@@ -808,10 +896,8 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     if PH > 0 {
         let mut xs = x_first;
         for ((p, c), p3) in ps.iter_mut().zip(colours.iter_mut()).zip(ps3.iter_mut()) {
-            let d = direction(plan, rp, xs);
-            let inv_n = *p;
             if PH == 1 {
-                let pv = hp.phases[0].eval(d, inv_n, hp.beta);
+                let pv = hp.phases[0].finish(*c, *p, hp.beta);
                 // A full block of an interleaved RGB row reads only the expanded value.
                 if rgb3 && full_block {
                     *p3 = pv.expand3();
@@ -819,7 +905,8 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
                     *p = pv;
                 }
             } else {
-                *c = colour(hp, d, inv_n);
+                let d = direction(plan, rp, xs);
+                *c = colour(hp, d, *p);
             }
             xs = xs + W::splat(n_lanes as f32);
         }
@@ -857,11 +944,11 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
             let mut insc = [zero; 3];
             for j in 0..3 {
                 let c = if PH == 1 {
-                    clamp_colour(p3[j].mul_add(phase_k3[j], colour3[j]))
+                    p3[j].mul_add(phase_k3[j], colour3[j])
                 } else {
-                    clamp_colour(colour3[j])
+                    colour3[j]
                 };
-                insc[j] = in_scattered(c, t[j]);
+                insc[j] = in_scattered(clamp_unless(bounded, c), t[j]);
             }
             out.fog_rgb3(x0, t, insc);
         } else {
@@ -878,16 +965,16 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
             let [c0, c1, c2] = hp.colour;
             let c = match PH {
                 0 => [
-                    clamp_colour(W::splat(c0)),
-                    clamp_colour(W::splat(c1)),
-                    clamp_colour(W::splat(c2)),
+                    clamp_unless(bounded, W::splat(c0)),
+                    clamp_unless(bounded, W::splat(c1)),
+                    clamp_unless(bounded, W::splat(c2)),
                 ],
                 1 => {
                     let [k0, k1, k2] = hp.phases[0].k;
                     [
-                        clamp_colour(p.mul_add(W::splat(k0), W::splat(c0))),
-                        clamp_colour(p.mul_add(W::splat(k1), W::splat(c1))),
-                        clamp_colour(p.mul_add(W::splat(k2), W::splat(c2))),
+                        clamp_unless(bounded, p.mul_add(W::splat(k0), W::splat(c0))),
+                        clamp_unless(bounded, p.mul_add(W::splat(k1), W::splat(c1))),
+                        clamp_unless(bounded, p.mul_add(W::splat(k2), W::splat(c2))),
                     ]
                 }
                 _ => *c,
@@ -948,7 +1035,7 @@ fn geometry<W: PassLane>(hp: &HeightPass, d: [W; 3], depth: W) -> (W, W, W) {
     // return the other operand for NaN.
     let t = Lane::min(W::splat(hp.t_big), Lane::max(W::splat(0.0), t));
     let y = (W::splat(hp.b2) * u) * t;
-    let y = <W as Lane>::select(Lane::lt(Lane::abs(y), W::splat(TINY)), W::splat(TINY), y);
+    let y = W::away_from_zero(y);
     (y, n * t, inv_n)
 }
 
@@ -968,6 +1055,76 @@ fn colour<W: PassLane>(hp: &HeightPass, d: [W; 3], inv_n: W) -> [W; 3] {
         }
     }
     [clamp_colour(c[0]), clamp_colour(c[1]), clamp_colour(c[2])]
+}
+
+/// The bound behind `HeightPass::colour_bounded`, at the build's lanes.
+#[cfg(test)]
+mod peak_tests {
+    use super::*;
+
+    /// `PhaseTerm::eval` (1/|d| from the pass's `rsqrt`, as in the pass) stays within
+    /// 1e-5 of `PhaseTerm::peak` (relative) for every phase function, g up to ±0.9999,
+    /// at the peak (views along and against the sun, unit and scaled directions) and
+    /// around it; `HeightPass::new` keeps a factor of 2.
+    #[test]
+    fn phase_values_stay_below_the_peak_bound() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rnd = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+        };
+        let gs = [-0.9999f32, -0.99, -0.5, 0.0, 0.3, 0.9, 0.99, 0.9999];
+        let mut phases = vec![Phase::Isotropic, Phase::Rayleigh];
+        for &g in &gs {
+            phases.push(Phase::HenyeyGreenstein(g));
+            phases.push(Phase::CornetteShanks(g));
+        }
+        let mut worst = 0.0f64;
+        for _ in 0..20 {
+            let s = loop {
+                let v = [rnd(), rnd(), rnd()];
+                let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                if n > 0.1 && n <= 1.0 {
+                    break v.map(|x| x / n);
+                }
+            };
+            for &phase in &phases {
+                let term = PhaseTerm::new(phase, [1.0; 3], s);
+                let peak = term.peak();
+                let mut dirs = Vec::new();
+                for scale in [1.0f32, 3.7, 1e-3, 250.0] {
+                    dirs.push(s.map(|x| x * scale));
+                    dirs.push(s.map(|x| -x * scale));
+                    for k in 0..6 {
+                        let e = 1e-4 * (k as f32);
+                        dirs.push([0, 1, 2].map(|i| (s[i] + e * rnd()) * scale));
+                        dirs.push([0, 1, 2].map(|i| (-s[i] + e * rnd()) * scale));
+                    }
+                    dirs.push([rnd() * scale, rnd() * scale, rnd() * scale + 2.0]);
+                }
+                for chunk in dirs.chunks(8) {
+                    let mut lanes = [[1.0f32; 8]; 3];
+                    for (k, d) in chunk.iter().enumerate() {
+                        for i in 0..3 {
+                            lanes[i][k] = d[i];
+                        }
+                    }
+                    let d = lanes.map(f32x8::new);
+                    let n2 = d[0].mul_add(d[0], d[1].mul_add(d[1], d[2] * d[2]));
+                    let p = term.eval(d, rsqrt(n2), true).to_array();
+                    for &pk in &p[..chunk.len()] {
+                        assert!(pk.is_finite() && pk >= 0.0, "{phase:?}: p = {pk}");
+                        worst = worst.max(f64::from(pk) / peak);
+                    }
+                }
+            }
+        }
+        eprintln!("phase values: max p / peak bound = {worst:.7}");
+        assert!(worst <= 1.0 + 1e-5, "p / peak = {worst}");
+        assert!(worst >= 0.999, "the peaks were not reached: {worst}");
+    }
 }
 
 #[cfg(all(test, any(zmm_dispatch, zmm_native)))]
@@ -1045,5 +1202,61 @@ mod tests {
         assert!(q[0].is_nan());
         Zmm::quotient(Zmm::splat(1.0), Zmm::splat(f32::NAN)).store(&mut q);
         assert!(q[0].is_nan());
+    }
+
+    /// `away_from_zero` on AVX-512 lanes (`vrangeps`, ±TINY) against the generic form
+    /// (+TINY): the same value where |y'| ≥ TINY, the same magnitude below, and the same
+    /// bits of E = exp2m1(y')/y' everywhere; NaN stays NaN.
+    #[test]
+    fn away_from_zero_gives_the_generic_quotient() {
+        if !crate::avx512_dispatch() {
+            eprintln!("no AVX-512 on this CPU: away_from_zero is not tested");
+            return;
+        }
+        let mut ys = vec![0.0f32, -0.0, f32::MIN_POSITIVE, 1e-45, 1e-30, 1e-20];
+        for k in -4..=4 {
+            ys.push(TINY * 2f32.powf(k as f32 / 2.0));
+        }
+        ys.extend([
+            TINY * 0.999_999_94,
+            TINY * 1.000_000_1,
+            1e-10,
+            0.5,
+            127.0,
+            1.5e37,
+        ]);
+        let ys: Vec<f32> = ys.iter().flat_map(|&y| [y, -y]).collect();
+        for chunk in ys.chunks(16) {
+            let mut a = [1.0f32; 16];
+            a[..chunk.len()].copy_from_slice(chunk);
+            let y = Zmm::load(&a);
+            let (mut z, mut ez, mut e_tiny) = ([0.0f32; 16], [0.0f32; 16], [0.0f32; 16]);
+            let yz = Zmm::away_from_zero(y);
+            yz.store(&mut z);
+            Zmm::quotient(exp2m1(yz), yz).store(&mut ez);
+            let tiny = Zmm::splat(TINY);
+            Zmm::quotient(exp2m1(tiny), tiny).store(&mut e_tiny);
+            let mut g = [0.0f32; 8];
+            for k in 0..16 {
+                <f32x8 as PassLane>::away_from_zero(f32x8::splat(a[k])).store(&mut g);
+                if a[k].abs() >= TINY {
+                    assert_eq!(z[k].to_bits(), a[k].to_bits(), "y' = {:e}", a[k]);
+                    assert_eq!(g[0].to_bits(), a[k].to_bits(), "y' = {:e}", a[k]);
+                } else {
+                    // −TINY for negative y' (−0 included), +TINY in the generic form:
+                    // the same E.
+                    assert_eq!(z[k].abs(), TINY, "y' = {:e}", a[k]);
+                    assert_eq!(g[0], TINY, "y' = {:e}", a[k]);
+                    assert_eq!(ez[k].to_bits(), e_tiny[k].to_bits(), "y' = {:e}", a[k]);
+                }
+            }
+        }
+        // NaN: ±TINY here (NaN in the generic form); the pass's NaN comes through n·t.
+        let mut q = [0.0f32; 16];
+        Zmm::away_from_zero(Zmm::splat(f32::NAN)).store(&mut q);
+        assert_eq!(q[0].abs(), TINY);
+        let mut g = [0.0f32; 8];
+        <f32x8 as PassLane>::away_from_zero(f32x8::splat(f32::NAN)).store(&mut g);
+        assert!(g[0].is_nan());
     }
 }

@@ -472,6 +472,12 @@ trait RowColour {
         let _ = (x0, trans, insc);
         unreachable!("fog_rgb3 on a row that is not interleaved RGB");
     }
+    /// Asks the cache for the colour of the `n` pixels from `x0` ahead of
+    /// [`RowColour::fog_rgb3`]/[`RowColour::fog_wide`] (a hint; nothing by default).
+    #[inline(always)]
+    fn prefetch(&self, x0: usize, n: usize) {
+        let _ = (x0, n);
+    }
     /// `L = L · T + L_in` for the `n` pixels from `x0`: one fused multiply-add per channel.
     #[inline(always)]
     fn fog(&mut self, x0: usize, n: usize, trans: [f32x8; 3], insc: [f32x8; 3]) {
@@ -506,11 +512,42 @@ fn interleave3(v: [f32x8; 3]) -> [f32x8; 3] {
     ]
 }
 
+/// Asks for the `bytes` from `p` (rounded to cache lines of 64 bytes from `p`; a line
+/// that `p` starts inside is the previous call's) to be read soon: [`prefetch_read`]
+/// for each line. The pass reads and then writes each colour it fogs, in order, so the
+/// lines it asks for are each asked for once.
+#[inline(always)]
+fn prefetch_bytes(p: *const f32, bytes: usize) {
+    let mut off = 0;
+    while off < bytes {
+        prefetch_read(p.wrapping_byte_add(off));
+        off += 64;
+    }
+}
+
+/// Asks for the cache line at `p` to be read soon (`prefetcht0`). A hint only, no access:
+/// `p` may point anywhere, past the end of its buffer included (it cannot fault).
+#[inline(always)]
+pub(crate) fn prefetch_read(p: *const f32) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint that reads or writes nothing and never faults.
+    #[allow(unsafe_code)]
+    unsafe {
+        core::arch::x86_64::_mm_prefetch::<{ core::arch::x86_64::_MM_HINT_T0 }>(p.cast())
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
+}
+
 /// A row of an interleaved buffer with `C` floats per pixel (RGB first).
 struct Interleaved<'a, const C: usize>(&'a mut [f32]);
 
 impl<const C: usize> RowColour for Interleaved<'_, C> {
     const RGB3: bool = C == 3;
+    #[inline(always)]
+    fn prefetch(&self, x0: usize, n: usize) {
+        prefetch_bytes(self.0.as_ptr().wrapping_add(x0 * C), n * C * 4);
+    }
     #[inline(always)]
     fn fog_rgb3<W: Lane>(&mut self, x0: usize, trans: [W; 3], insc: [W; 3]) {
         let n = W::LANES;
@@ -584,6 +621,10 @@ struct Planar<'a>([&'a mut [f32]; 3]);
 impl<R: RowColour> RowColour for &mut R {
     const RGB3: bool = R::RGB3;
     #[inline(always)]
+    fn prefetch(&self, x0: usize, n: usize) {
+        (**self).prefetch(x0, n)
+    }
+    #[inline(always)]
     fn fog_rgb3<W: Lane>(&mut self, x0: usize, trans: [W; 3], insc: [W; 3]) {
         (**self).fog_rgb3(x0, trans, insc)
     }
@@ -602,6 +643,12 @@ impl<R: RowColour> RowColour for &mut R {
 }
 
 impl RowColour for Planar<'_> {
+    #[inline(always)]
+    fn prefetch(&self, x0: usize, n: usize) {
+        for ch in 0..3 {
+            prefetch_bytes(self.0[ch].as_ptr().wrapping_add(x0), n * 4);
+        }
+    }
     #[inline(always)]
     fn load(&self, x0: usize, n: usize) -> [f32x8; 3] {
         rgb!(ch => {
