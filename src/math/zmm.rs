@@ -144,10 +144,10 @@ impl Zmm {
     }
 
     /// |self| raised to at least `b` (positive), with the sign of `self` (`vrangeps`:
-    /// imm8[1:0] = 11, the larger magnitude; imm8[3:2] = 00, the sign of the first
-    /// source, `self`; 01 would take the sign of the value chosen): one instruction for an
-    /// and, a compare and a blend. A NaN lane gives ±`b`, not NaN (`vrangeps` returns
-    /// the other operand where one is a quiet NaN).
+    /// the immediate's bits 1:0 = 11, the larger magnitude; bits 3:2 = 00, the sign of
+    /// the first source, `self`; 01 would take the sign of the value chosen): one
+    /// instruction for an and, a compare and a blend. A NaN lane gives ±`b`, not NaN
+    /// (`vrangeps` returns the other operand where one is a quiet NaN).
     #[inline(always)]
     pub(crate) fn max_magnitude(self, b: Zmm) -> Zmm {
         Zmm(unsafe { _mm512_range_ps::<0b0011>(self.0, b.0) })
