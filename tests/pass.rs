@@ -1532,6 +1532,20 @@ fn sunlit_layer(falloff: f32, emission: Vec3, component: Component) -> SceneDesc
     }
 }
 
+/// [`sunlit_layer`] with the benches' fog: falloff 0.1, RGB scattering, Henyey–Greenstein
+/// g = 0.6, no emission.
+fn typical_sunlit_layer() -> SceneDesc {
+    sunlit_layer(
+        0.1,
+        Vec3::ZERO,
+        Component {
+            scattering: Vec3::new(0.02, 0.03, 0.05),
+            absorption: Vec3::ZERO,
+            phase: Phase::HenyeyGreenstein(0.6),
+        },
+    )
+}
+
 /// Depths for the saturation tests: +∞, 0, and 1 to 1e6 in decades.
 fn saturation_depths(n: usize) -> Vec<f32> {
     (0..n)
@@ -1618,15 +1632,7 @@ fn own_kernel_eye_far_above_the_fog() {
     let mut counts = [0usize; 3];
     for &eye in &[250.0f32, 400.0, 500.0, 600.0] {
         for &pitch in &[-0.6f32, -0.05, 0.0, 0.3] {
-            let desc = sunlit_layer(
-                0.1,
-                Vec3::ZERO,
-                Component {
-                    scattering: Vec3::new(0.02, 0.03, 0.05),
-                    absorption: Vec3::ZERO,
-                    phase: Phase::HenyeyGreenstein(0.6),
-                },
-            );
+            let desc = typical_sunlit_layer();
             let scene = Scene::new(desc.clone()).unwrap();
             let fwd = Vec3::new(0.0, pitch, -1.0).normalize();
             let cam = Camera::perspective(Vec3::new(0.0, eye, 0.0), fwd, Vec3::Y, 1.2, 29.0 / 7.0)
@@ -1655,15 +1661,7 @@ fn own_kernel_eye_far_above_the_fog() {
 #[test]
 fn own_kernel_nan_depth_gives_nan_fog() {
     let (w, h) = (37, 3);
-    let desc = sunlit_layer(
-        0.1,
-        Vec3::ZERO,
-        Component {
-            scattering: Vec3::new(0.02, 0.03, 0.05),
-            absorption: Vec3::ZERO,
-            phase: Phase::HenyeyGreenstein(0.6),
-        },
-    );
+    let desc = typical_sunlit_layer();
     let scene = Scene::new(desc).unwrap();
     let cam =
         Camera::perspective(Vec3::new(0.0, 2.0, 0.0), Vec3::NEG_Z, Vec3::Y, 1.0, 2.0).unwrap();
