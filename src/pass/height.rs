@@ -868,7 +868,7 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
         .zip(colours.iter_mut())
     {
         // The colour the third stage reads and writes, asked for now (in the full frame
-        // that stage otherwise waited on it: README "Speed of the pass").
+        // that stage otherwise waited on it: README "Intel Xeon, forty-fourth session").
         out.prefetch(x, n_lanes);
         // And the depth of the next block (the next row's where this is the row's last).
         super::prefetch_read(dv.as_ptr().wrapping_add(BLOCK * n_lanes));
@@ -1062,10 +1062,10 @@ fn colour<W: PassLane>(hp: &HeightPass, d: [W; 3], inv_n: W) -> [W; 3] {
 mod peak_tests {
     use super::*;
 
-    /// `PhaseTerm::eval` (1/|d| from the pass's `rsqrt`, as in the pass) stays within
-    /// 1e-5 of `PhaseTerm::peak` (relative) for every phase function, g up to ±0.9999,
-    /// at the peak (views along and against the sun, unit and scaled directions) and
-    /// around it; `HeightPass::new` keeps a factor of 2.
+    /// `PhaseTerm::eval` (1/|d| from the pass's `rsqrt`, as in the pass) stays below
+    /// `PhaseTerm::peak`·(1 + 1e-5) for every phase function, g up to ±0.9999, at the peak
+    /// (views along and against the sun, unit and scaled directions) and around it, and
+    /// comes within 1e-3 of it; `HeightPass::new` keeps a factor of 2.
     #[test]
     fn phase_values_stay_below_the_peak_bound() {
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
@@ -1206,7 +1206,7 @@ mod tests {
 
     /// `away_from_zero` on AVX-512 lanes (`vrangeps`, ±TINY) against the generic form
     /// (+TINY): the same value where |y'| ≥ TINY, the same magnitude below, and the same
-    /// bits of E = exp2m1(y')/y' everywhere; NaN stays NaN.
+    /// bits of E = exp2m1(y')/y' there; NaN becomes ±TINY (NaN in the generic form).
     #[test]
     fn away_from_zero_gives_the_generic_quotient() {
         if !crate::avx512_dispatch() {
