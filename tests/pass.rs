@@ -1657,7 +1657,8 @@ fn own_kernel_eye_far_above_the_fog() {
 
 /// A NaN depth gives NaN fog in the own kernel too, at every position of a packet and in
 /// a row's tail, and its neighbours stay finite (AVX-512 lanes turn a NaN y' into ±TINY;
-/// the NaN reaches the pixel through n·t), in every colour layout and depth convention.
+/// the NaN reaches the pixel through n·t), in the RGB and planar layouts, with linear,
+/// distance and reversed-Z depth.
 #[test]
 fn own_kernel_nan_depth_gives_nan_fog() {
     let (w, h) = (37, 3);
