@@ -2,21 +2,25 @@
 //! framebuffer pass's E(Δ) = expm1(−Δ)/(−Δ), with the falloff pre-scaled by log2(e) so
 //! that the argument arrives in base 2.
 //!
-//! Reduction: `k = round(y)`, `f = y − k` in [−1/2, 1/2], both exact (no multiply by
-//! log2(e), no Cody–Waite split: two FMAs fewer than [`expm1`](fn@super::expm1)); k and
-//! 2^k from one add ([`Lane::round_pow2i`]). Polynomial:
-//! `2^f − 1 = f·P(f)`, `P` of degree 6, a Chebyshev fit from `tools/fit_poly.py` (max
-//! relative error with f32 coefficients 5.6e-9, 0.09 ULP). Reconstruction:
-//! `2^y − 1 = 2^k·f·P(f) + (2^k − 1)`, one FMA with 2^k·f exact; k = 0 returns `f·P(f)`
-//! rounded once (tiny inputs come back as `y·ln2`). The argument is clamped to
-//! [−64, 127], so 2^k is always a normal f32 and nothing overflows: `−1` below −64 (what
-//! 2^y − 1 rounds to there), and above 127 the value at 127, 2^127 (callers that need
-//! `+inf` beyond must clamp themselves; the pass's ranges make E saturate T to 0 well
+//! Reduction: `k = round(y)` (ties to even), `f = y − k` in [−1/2, 1/2], both exact (no
+//! multiply by log2(e), no Cody–Waite split: two FMAs fewer than
+//! [`expm1`](fn@super::expm1)); f and 2^(k−1) from [`Lane::round_frac_pow2i_half`] (an
+//! add, two subtracts and a shift; on AVX-512 lanes `vreduceps`, a subtract and
+//! `vscalefps`). Polynomial: `2^f − 1 = f·P(f)`, `P` of degree 5, a Chebyshev fit whose
+//! f32 coefficients were then moved by a few ULP each to the smallest maximum error
+//! (`tools/fit_poly.py`; max relative error 1.64e-8, 0.28 ULP; degree 6, until the
+//! forty-fifth session, had 5.6e-9 for one multiply-add more per value). The coefficients
+//! are stored doubled (exact), to make up for the 2^(k−1). Reconstruction:
+//! `2^y − 1 = f·(2^k·P(f)) + (2^k − 1)`, one FMA with 2^k·P(f) exact; k = 0 returns
+//! `f·P(f)` rounded once (tiny inputs come back as `y·ln2`). The argument is clamped to
+//! [−64, 127], so 2^(k−1) is always a normal f32 and nothing overflows: `−1` below −64
+//! (what 2^y − 1 rounds to there), and above 127 the value at 127, 2^127 (callers that
+//! need `+inf` beyond must clamp themselves; the pass's ranges make E saturate T to 0 well
 //! before). No branch.
 //!
-//! Measured (`tests/exhaustive.rs`, every f32): max error 1.685 ULP (at y = 0.5048098, where
-//! k = 1 and 2·(2^f − 1) + 1 cancels a little), 7.5% of the inputs in [−64, 127] over
-//! 0.5 ULP; −1 exactly below −64, 2^127 above 127.
+//! Measured (`tests/exhaustive.rs`, every f32): max error 1.782 ULP (at y = 0.54805607,
+//! where k = 1 and 2·(2^f − 1) + 1 cancels a little; 1.685 with degree 6), 7.5 % of the
+//! inputs in [−64, 127] over 0.5 ULP; −1 exactly below −64, 2^127 above 127.
 
 use super::Lane;
 
@@ -25,15 +29,16 @@ use super::Lane;
 pub fn exp2m1<L: Lane>(y: L) -> L {
     // `maxps`/`minps` with y second: NaN stays NaN.
     let y = L::splat(127.0).min(L::splat(-64.0).max(y));
-    let (k, s) = y.round_pow2i();
-    let f = y - k;
-    let p = L::splat(1.529_732_4e-5)
-        .mul_add(f, L::splat(0.000_154_614_45))
-        .mul_add(f, L::splat(0.001_333_350_2))
-        .mul_add(f, L::splat(0.009_618_057))
-        .mul_add(f, L::splat(0.055_504_11))
-        .mul_add(f, L::splat(0.240_226_51))
-        .mul_add(f, L::splat(core::f32::consts::LN_2));
-    // 2^k·f is exact, so p is the only rounded factor before the final FMA.
-    (s * f).mul_add(p, s - L::splat(1.0))
+    // f = y − k, h = 2^(k−1): the polynomial's coefficients are doubled (exact) to make up.
+    let (f, h) = y.round_frac_pow2i_half();
+    let p = L::splat(3.090_619_6e-4)
+        .mul_add(f, L::splat(0.002_678_177_6))
+        .mul_add(f, L::splat(0.019_236_14))
+        .mul_add(f, L::splat(0.111_007_21))
+        .mul_add(f, L::splat(0.480_453))
+        .mul_add(f, L::splat(2.0 * core::f32::consts::LN_2));
+    // 2^(k−1)·p = 2^k·P(f) is exact (a normal number scaled by a power of two), so P is
+    // the only rounded factor before the final FMA (f subnormal included), and
+    // 2^(k−1)·2 − 1 = 2^k − 1 is rounded once.
+    f.mul_add(h * p, h.mul_add(L::splat(2.0), L::splat(-1.0)))
 }

@@ -101,6 +101,21 @@ pub trait Lane:
         let t = self + Self::splat(POW2_MAGIC);
         (t - Self::splat(POW2_MAGIC), Self::shl23(t))
     }
+    /// `(y − k, 2^(k−1))` with k = y rounded to the nearest integer, ties to even (as
+    /// [`Lane::round`]), for `y` in `[-125, 127]`: the reduction of [`exp2m1`]. Here one
+    /// add of 1.5·2^23 + 126 (even, so the sum's ties give even k), a subtract, a shift
+    /// (the sum's low bits hold k + 126, the biased exponent of 2^(k−1), which stays
+    /// normal up to k = 127) and a subtract for y − k; AVX-512 lanes take `vreduceps`
+    /// for y − k itself, one subtract for k and `vscalefps` for 2^(k−1): one operation
+    /// fewer, the same bits (y − k and k are exact either way).
+    ///
+    /// [`exp2m1`]: fn@super::exp2m1
+    #[inline(always)]
+    fn round_frac_pow2i_half(self) -> (Self, Self) {
+        let t = self + Self::splat(POW2_MAGIC_EVEN);
+        let k = t - Self::splat(POW2_MAGIC_EVEN);
+        (self - k, Self::shl23(t))
+    }
     /// The bits of `self` shifted left by 23 (an integer in the low mantissa bits moved
     /// into the exponent field).
     fn shl23(self) -> Self;
@@ -209,6 +224,10 @@ pub trait Lane:
 /// (the sum ties to even, so k ties to odd) and leaves k + 127, the biased exponent of
 /// 2^k, in the low mantissa bits.
 pub(crate) const POW2_MAGIC: f32 = 12_582_912.0 + 127.0;
+
+/// 1.5 · 2^23 + 126: as [`POW2_MAGIC`], but even, so the rounded integer k ties to even,
+/// and the low mantissa bits hold k + 126, the biased exponent of 2^(k−1).
+pub(crate) const POW2_MAGIC_EVEN: f32 = 12_582_912.0 + 126.0;
 
 impl Lane for f32 {
     type Mask = bool;

@@ -329,6 +329,15 @@ impl Lane for Zmm {
         (Zmm::select(self.is_nan(), self.with_unit_exponent(), m), e)
     }
     #[inline(always)]
+    fn round_frac_pow2i_half(self) -> (Self, Self) {
+        // `vreduceps` with imm 0x08 (keep 0 fraction bits, round to nearest even, no
+        // precision exception): y − k exactly; then k = y − (y − k), exact; 2^(k−1) by
+        // `vscalefps`. NaN gives NaN for both.
+        let f = Zmm(unsafe { _mm512_reduce_ps::<0x08>(self.0) });
+        let k = self - f;
+        (f, Zmm::splat(0.5).scale2(k))
+    }
+    #[inline(always)]
     fn scale2(self, e: Self) -> Self {
         Zmm(unsafe { _mm512_scalef_ps(self.0, e.0) })
     }

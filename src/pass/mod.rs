@@ -60,7 +60,7 @@ use crate::math::Lane;
 use crate::scene::Scene;
 use camera::{FramePlan, RowPlan};
 use cull::{FrameCull, TileLists, TILE_H, TILE_W};
-use height::{HeightPass, PassLane};
+use height::{HeightPass, OwnKernel, PassLane};
 use rayon::prelude::*;
 use wide::f32x8;
 
@@ -338,7 +338,7 @@ fn fog_pass(
     let cull = cull.as_ref();
     // The frame's own kernel where it applies (`height.rs`).
     let hp = if cull.is_none() && !scene.exact_pass {
-        HeightPass::new(scene, &plan)
+        OwnKernel::new(scene, &plan, width)
     } else {
         None
     };
@@ -414,7 +414,7 @@ fn interleaved<const C: usize>(
     scene: &Scene,
     plan: &FramePlan,
     cull: Option<&FrameCull>,
-    hp: Option<&HeightPass>,
+    hp: Option<&OwnKernel>,
     width: usize,
     band: usize,
     depth: &[f32],
