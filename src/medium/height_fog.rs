@@ -51,7 +51,8 @@ use crate::scene::LayerCore;
 pub(crate) struct RayGeom<L> {
     /// Height of the origin along the up axis: dot(o, up) (±inf where that overflows).
     pub y: L,
-    /// dot(o, up) · 2^-64, which does not overflow.
+    /// dot(o, up) · 2^-64, which does not overflow (along an axis, +0 for heights below
+    /// 2^-62, which would be subnormal at that scale: `kernel::height_scaled`).
     pub y_s: L,
     /// frexp of u = dot(d, up) (u = 0 gives e = U_ZERO_EXPONENT + u_shift).
     pub u_m: L,
@@ -243,41 +244,71 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
     // `exprel_neg` normal, so tiny falloffs run as fast as typical ones (subnormal
     // arithmetic has a penalty on many CPUs).
     let dc = if L::NATIVE_SCALE {
-        // The same values: below 2^-100 both end at the max.
-        dm.abs().scale2(de.min(L::splat(PHI_MAX_EXP)))
+        // The same values: below 2^-100 both end at the max (clamped there so that
+        // `vscalefps` never forms a subnormal: a microcode assist of ~200 cycles on Intel).
+        dm.abs()
+            .scale2(de.clamp(L::splat(-100.0), L::splat(PHI_MAX_EXP)))
     } else {
         dm.abs() * L::pow2i(de.clamp(L::splat(-100.0), L::splat(PHI_MAX_EXP)))
     }
     .max(L::splat(8.673_617e-19)); // 2^-60
     let phi_e = (L::splat(PHI_MAX_EXP) - de).min(L::splat(0.0));
 
-    // The exponent at the denser end, u_min = b·y0 + min(Δ, 0), summed in units of 2^-64
-    // so that neither term saturates before their sum does: |b·y0| reaches 2^256 and
-    // |Δ| 2^(2^21) (t = +∞). With both terms clamped to a common bound (as before), a
-    // camera far on the thin side looking into denser fog got the sign of u_min wrong
-    // (`tests/extreme.rs`: b = 1e30, camera 2 above the base looking down gave τ = 0,
-    // not +∞), and y − h0 overflowed for heights beyond ±1.7e38 (wrong for tiny b).
-    // The 2^-64 goes, per layer, to y0 where |b| ≤ 2^40 (y0·2^-64, from the height formed
-    // at that scale, loses at most 2^-150 absolute, b times that ≤ 2^-110, and b·y0·2^-64
-    // cannot overflow) and to b otherwise (b·2^-64 is exact; a0·2^-64 overflows only
-    // beyond 2^191, and the min keeps +inf + (−inf) from giving NaN). The sum times 2^64
-    // saturates to ±inf, which `exp_split` clamps.
-    let a0s = if KIND == 1 {
-        L::splat(layer.b) * (g.y_s - L::splat(layer.h0 * TWO_M64))
-    } else {
-        (L::splat(layer.b * TWO_M64) * (g.y - L::splat(layer.h0))).min(L::splat(1.7e38))
-    };
     // Δ·2^-64. `pow2i` needs its exponent clamped; `scale2` saturates by itself, and the
     // unclamped value gives the same bits: beyond 2^127 a negative Δ·2^-64 outweighs
-    // any a0s (≤ 1.7e38) by more than 2^-64·f32::MAX, so u_min is −∞ either way, and
-    // below 2^-126 it changes a0s only where |a0s| < 2^-99, where e^(−u_min) rounds to 1
-    // either way.
+    // any a0s (≤ 1.7e38) by more than 2^-64·f32::MAX, so u_min is −∞ either way. Below
+    // (|Δ| < 2^-59, exponent below −62) both clamp to dm·2^-126, never subnormal (a
+    // subnormal product or `vscalefps` result costs a microcode assist of ~200 cycles on
+    // Intel: `examples/speedscan.rs`, `short_1e-30`); a term that small moves neither
+    // sum below: where |a0| ≥ 2^-34 half an ulp of it is at least 2^-58, and elsewhere
+    // |u_min| < 2^-33, where the exponential is exactly (1, ±0) either way.
     let ds = if L::NATIVE_SCALE {
-        dm.scale2(de - L::splat(64.0))
+        dm.scale2(de.max(L::splat(-62.0)) - L::splat(64.0))
     } else {
         dm * L::pow2i((de - L::splat(64.0)).clamp(L::splat(-126.0), L::splat(127.0)))
     };
-    let neg_u_min = (a0s + ds.min(L::splat(0.0))) * L::splat(-TWO64);
+    // The exponent at the denser end, u_min = b·y0 + min(Δ, 0).
+    //
+    // KIND 1 (|b| ≤ 2^40): in plain f32, −u_min = (−b)·(y − h0) − min(Δ, 0) with Δ = ds·2^64
+    // (exact, or ±∞ beyond f32::MAX), the operations of `depth_args_tame`, so the two
+    // paths give the same bits wherever both apply. Every term is either normal, zero,
+    // or one of the harmless clamped tiny Δ above: no subnormal arithmetic (the height
+    // formed at 2^-64 scale, as before, was subnormal below 2^-62 and cost assists on
+    // every ray of a camera within 2e-19 of the base: `camera_1e-19` 11× the time of
+    // typical data on the Intel Xeon, forty-sixth session). Saturation is right where
+    // only one term is infinite: b·y0 overflows only beyond 2^128 > |Δ| (finite Δ), and
+    // Δ = ±∞ outweighs any finite b·y0. Two lane kinds take the scaled sum below
+    // instead: y − h0 beyond f32::MAX (a finite height with |b| < 1 whose b·y0 does not
+    // outweigh Δ) and ∞ − ∞ (NaN), where both terms saturate.
+    //
+    // The scaled sum (KIND 2, and those lanes of KIND 1): in units of 2^-64 so that
+    // neither term saturates before their sum does: |b·y0| reaches 2^256 and |Δ|
+    // 2^(2^21) (t = +∞). With both terms clamped to a common bound (as before), a camera
+    // far on the thin side looking into denser fog got the sign of u_min wrong
+    // (`tests/extreme.rs`: b = 1e30, camera 2 above the base looking down gave τ = 0,
+    // not +∞), and y − h0 overflowed for heights beyond ±1.7e38 (wrong for tiny b).
+    // The 2^-64 goes, per layer, to y0 where |b| ≤ 2^40 (y0·2^-64, from the height formed
+    // at that scale, `RayGeom::y_s`, cannot overflow, and b·y0·2^-64 neither) and to b
+    // otherwise (b·2^-64 is exact; a0·2^-64 overflows only beyond 2^191, and the min
+    // keeps +inf + (−inf) from giving NaN). The sum times 2^64 saturates to ±inf, which
+    // `exp_split` clamps.
+    // (No closure for the shared step: closures lose the AVX-512 entry point's
+    // `#[target_feature]`.)
+    let ds_neg = ds.min(L::splat(0.0));
+    let neg_u_min = if KIND == 1 {
+        let y0 = g.y - L::splat(layer.h0);
+        let plain = height_term(layer, y0) - (ds * L::splat(TWO64)).min(L::splat(0.0));
+        let bad = !(y0.abs().le(L::splat(f32::MAX)) & plain.eq(plain));
+        if L::any(bad) {
+            let a0s = L::splat(layer.b) * (g.y_s - L::splat(layer.h0 * TWO_M64));
+            L::select(bad, (a0s + ds_neg) * L::splat(-TWO64), plain)
+        } else {
+            plain
+        }
+    } else {
+        let a0s = (L::splat(layer.b * TWO_M64) * (g.y - L::splat(layer.h0))).min(L::splat(1.7e38));
+        (a0s + ds_neg) * L::splat(-TWO64)
+    };
     DepthArgs {
         dc,
         neg_u_min,
@@ -286,6 +317,19 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
         guard: g.guard,
     }
 }
+
+/// −b·y0 for a layer of [`falloff_kind`] 1, in plain f32 (±∞ beyond f32::MAX), with
+/// heights |y0| below 2^-100/|b| taken as 0: |b·y0| below 2^-100 would be formed
+/// subnormal (a microcode assist of ~200 cycles per product on Intel: `camera_1e-38`
+/// in `examples/speedscan.rs`) and moves no result (see [`depth_args_of`]'s Δ·2^-64).
+#[inline(always)]
+fn height_term<L: Lane>(layer: &LayerCore, y0: L) -> L {
+    let tiny = L::splat(TWO_M100 / layer.b.abs());
+    L::select(y0.abs().lt(tiny), L::splat(0.0), y0) * L::splat(-layer.b)
+}
+
+/// 2^-100.
+const TWO_M100: f32 = 7.888_609e-31;
 
 /// Bounds of [`depth_args_tame`]'s lanes: |d|·t in [2^-20, 2^31] and |Δ| < 2^8.
 const TAME_M_MIN: f32 = 9.536_743e-7; // 2^-20
@@ -319,26 +363,24 @@ const SKY_SHIFT_EXP: [f32; 2] = [17.0, 43.0];
 ///   which |Δ| ≥ 2^-60 with t ≤ 2^31 guarantees (|b·u| ≥ 2^-91); below 2^-60 both give
 ///   φ's argument 2^-60;
 /// - |Δ| < 2^8 keeps φ's argument unclamped (exponent of Δ ≤ 7) and φ's exponent 0;
-/// - the height term a0s = b·(y·2^-64 − h0·2^-64) is formed by the same operations, and
-///   −u_min as a0s·(−2^64) − min(Δ, 0) in one FMA, where the general path rounds
-///   a0s + Δ·2^-64 and scales by −2^64: a0s·2^64 is exact (or beyond f32::MAX, where
-///   |Δ| < 2^8 cannot bring the sum back: ±∞ in both), so the two round the same real
-///   number wherever the general path's Δ·2^-64 is exact: where Δ's exponent is at
-///   least −62 (normal after the scaling). Below (|Δ| < 2^-60) the general path clamps
-///   the scaling to 2^-126, a term below 2^-123 in magnitude, against the FMA's |Δ| below
-///   2^-60: where |a0s| > 2^-98 (|a0s·2^64| > 2^-34), half an ulp of a0s exceeds the
-///   first and half an ulp of a0s·2^64 the second, so both sums are a0s; elsewhere both
-///   |u_min| are below 2^-33, where `exp2_split` gives exactly (1, ±0) in both. So a tiny
-///   negative Δ needs no bound of its own, and no product here is subnormal for it (a
-///   nearly level ray, Δ = −1e-19, sent the whole packet down the general path, and a
-///   tiny positive one cost a microcode assist on Δ·2^-64; `examples/speedscan.rs`);
-/// - the guard is 0: t is finite and positive, y is finite (checked), and u is finite
+/// - −u_min = −b·(y − h0) − min(Δ, 0) in plain f32 ([`height_term`]: heights below
+///   2^-100/|b| taken as 0), the operations of the general path's plain sum, which it
+///   takes wherever y − h0 is finite and the sum is not ∞ − ∞ (here y − h0 is checked
+///   finite and |Δ| < 2^8). Below |Δ| < 2^-59 the general path's Δ is clamped to
+///   dm·2^-62 against the exact Δ here: where |b·y0| ≥ 2^-34 half an ulp of it exceeds
+///   both, so both sums round to −b·y0; elsewhere both |u_min| are below 2^-33, where
+///   `exp2_split` gives exactly (1, ±0) in both. No term is subnormal (the height formed
+///   at 2^-64 scale, as before, was below 2^-62 and cost every such packet microcode
+///   assists on Intel: `camera_1e-19_free` 7.4× the time of typical data in
+///   `examples/speedscan.rs`, forty-sixth session; a nearly level ray, Δ = −1e-19, once
+///   sent the whole packet down the general path);
+/// - the guard is 0: t is finite and positive, y − h0 is finite (checked), and u is finite
 ///   because b·u·t is finite with t > 0.
 ///
 #[inline(always)]
 pub(crate) fn depth_args_tame<L: Lane>(
     layer: &LayerCore,
-    y_s: L,
+    y: L,
     u: L,
     t: L,
     norm: (L, L),
@@ -346,12 +388,12 @@ pub(crate) fn depth_args_tame<L: Lane>(
     let m = norm.0 * t;
     let d = (L::splat(layer.b) * u) * t;
     let ad = d.abs();
-    let a0s = L::splat(layer.b) * (y_s - L::splat(layer.h0 * TWO_M64));
-    let neg_u_min = a0s.mul_sub(L::splat(-TWO64), d.min(L::splat(0.0)));
+    let y0 = y - L::splat(layer.h0);
+    let neg_u_min = height_term(layer, y0) - d.min(L::splat(0.0));
     let ok = m.ge(L::splat(TAME_M_MIN))
         & m.le(L::splat(TAME_M_MAX))
         & ad.lt(L::splat(TAME_DELTA_MAX))
-        & y_s.abs().le(L::splat(f32::MAX));
+        & y0.abs().le(L::splat(f32::MAX));
     let args = DepthArgs {
         dc: ad.max(L::splat(8.673_617e-19)), // 2^-60, as in `depth_args_of`
         neg_u_min,
@@ -417,7 +459,7 @@ const M_SHIFT_EXP: f32 = 32.0;
 #[inline(always)]
 pub(crate) fn depth_args_tame_wide<L: Lane>(
     layer: &LayerCore,
-    y_s: L,
+    y: L,
     u: L,
     t: L,
     norm: (L, L),
@@ -426,7 +468,11 @@ pub(crate) fn depth_args_tame_wide<L: Lane>(
     let (args, ok) = tame;
     let bu = L::splat(layer.b) * u;
     let abu = bu.abs();
-    let y_fin = y_s.abs().le(L::splat(f32::MAX));
+    // (And −u_min not ∞ − ∞: a sky lane whose b·y0 overflows against Δ = ∓∞ takes the
+    // general path's scaled sum.)
+    #[allow(clippy::eq_op)]
+    let y_fin =
+        (y - L::splat(layer.h0)).abs().le(L::splat(f32::MAX)) & args.neg_u_min.eq(args.neg_u_min);
     // |d| finite (an infinite component off the up axis makes the general path's guard
     // NaN) and the height finite: sky and far lanes.
     let fin = norm.0.le(L::splat(f32::MAX)) & y_fin;
