@@ -129,14 +129,18 @@ fn packet_geom<L: Lane, const AXIS: usize>(
     // finite ray, found by `tests/height_fog.rs`): the height is also formed at 2^-64
     // scale, and u from the unit direction times n_m, with |d|'s exponent n_e carried
     // apart (which also keeps u's precision for subnormal directions).
-    let (y, y_s, u, u_shift) = if AXIS < 3 {
-        (
-            p.o[AXIS],
-            height_scaled::<L, AXIS>(p),
-            p.d[AXIS],
-            L::splat(-0.0),
-        )
-    } else {
+    if AXIS < 3 {
+        // The guard reads the height itself (finite exactly where its scaled form is),
+        // so that the scaled height, which only `depth_args_of`'s rare scaled sum reads,
+        // is formed there alone.
+        let y = p.o[AXIS];
+        let g = RayGeom::new(y, y, p.d[AXIS], L::splat(-0.0), p.t, norm);
+        return RayGeom {
+            y_s: height_scaled::<L, AXIS>(p),
+            ..g
+        };
+    }
+    let (y, y_s, u, u_shift) = {
         let up_s = up.map(|c| c * TWO_M64);
         let u = crate::light::dot3(*dir, up) * norm.0;
         (

@@ -262,8 +262,11 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
     // Intel: `examples/speedscan.rs`, `short_1e-30`); a term that small moves neither
     // sum below: where |a0| ≥ 2^-34 half an ulp of it is at least 2^-58, and elsewhere
     // |u_min| < 2^-33, where the exponential is exactly (1, ±0) either way.
+    // (Δ itself, for KIND 1's plain sum below: `vscalefps` forms it from the clamped
+    // exponent directly, the scaled Δ then only where the scaled sum is needed.)
+    let de_c = de.max(L::splat(-62.0));
     let ds = if L::NATIVE_SCALE {
-        dm.scale2(de.max(L::splat(-62.0)) - L::splat(64.0))
+        dm.scale2(de_c - L::splat(64.0))
     } else {
         dm * L::pow2i((de - L::splat(64.0)).clamp(L::splat(-126.0), L::splat(127.0)))
     };
@@ -292,22 +295,28 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
     // otherwise (b·2^-64 is exact; a0·2^-64 overflows only beyond 2^191, and the min
     // keeps +inf + (−inf) from giving NaN). The sum times 2^64 saturates to ±inf, which
     // `exp_split` clamps.
-    // (No closure for the shared step: closures lose the AVX-512 entry point's
-    // `#[target_feature]`.)
-    let ds_neg = ds.min(L::splat(0.0));
     let neg_u_min = if KIND == 1 {
         let y0 = g.y - L::splat(layer.h0);
-        let plain = height_term(layer, y0) - (ds * L::splat(TWO64)).min(L::splat(0.0));
-        let bad = !(y0.abs().le(L::splat(f32::MAX)) & plain.eq(plain));
+        let delta = if L::NATIVE_SCALE {
+            dm.scale2(de_c)
+        } else {
+            ds * L::splat(TWO64)
+        };
+        let plain = height_term(layer, y0) - delta.min(L::splat(0.0));
+        // NaN exactly on the lanes for the scaled sum (y0·0 is NaN where y0 is ±∞ or
+        // NaN): one compare.
+        let check = y0.mul_add(L::splat(0.0), plain);
+        #[allow(clippy::eq_op)]
+        let bad = !check.eq(check);
         if L::any(bad) {
             let a0s = L::splat(layer.b) * (g.y_s - L::splat(layer.h0 * TWO_M64));
-            L::select(bad, (a0s + ds_neg) * L::splat(-TWO64), plain)
+            L::select(bad, (a0s + ds.min(L::splat(0.0))) * L::splat(-TWO64), plain)
         } else {
             plain
         }
     } else {
         let a0s = (L::splat(layer.b * TWO_M64) * (g.y - L::splat(layer.h0))).min(L::splat(1.7e38));
-        (a0s + ds_neg) * L::splat(-TWO64)
+        (a0s + ds.min(L::splat(0.0))) * L::splat(-TWO64)
     };
     DepthArgs {
         dc,
@@ -325,7 +334,7 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
 #[inline(always)]
 fn height_term<L: Lane>(layer: &LayerCore, y0: L) -> L {
     let tiny = L::splat(TWO_M100 / layer.b.abs());
-    L::select(y0.abs().lt(tiny), L::splat(0.0), y0) * L::splat(-layer.b)
+    L::select(y0.abs().ge(tiny), y0, L::splat(0.0)) * L::splat(-layer.b)
 }
 
 /// 2^-100.
