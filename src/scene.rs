@@ -348,6 +348,9 @@ pub(crate) struct LayerCore {
     /// Fog colour terms that do not depend on the ray direction:
     /// Σ β_s · (L_amb + E_sun / 4π for isotropic components) / β_t.
     pub colour_const: [f32; 3],
+    /// Heights above the base below this count as 0 in the exponent (2^-100/|b|, +∞ for
+    /// b = 0: `height_fog::height_term`).
+    pub tiny_height: f32,
 }
 
 impl LayerCore {
@@ -379,6 +382,7 @@ impl LayerCore {
             sigma_t: s64.map(|s| s as f32),
             shared_scale: shared_scale_f64(s64),
             colour_const: self.colour_const,
+            tiny_height: crate::medium::height_fog::tiny_height(b),
         })
     }
 }
@@ -664,6 +668,7 @@ impl Scene {
                     shared_scale: shared_scale(sigma_t),
                     sigma_t,
                     colour_const: colour_const.map(|v| v as f32),
+                    tiny_height: crate::medium::height_fog::tiny_height(b),
                 },
                 colour_sun,
             });

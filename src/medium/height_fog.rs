@@ -333,8 +333,14 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
 /// in `examples/speedscan.rs`) and moves no result (see [`depth_args_of`]'s Δ·2^-64).
 #[inline(always)]
 fn height_term<L: Lane>(layer: &LayerCore, y0: L) -> L {
-    let tiny = L::splat(TWO_M100 / layer.b.abs());
+    let tiny = L::splat(layer.tiny_height);
     L::select(y0.abs().ge(tiny), y0, L::splat(0.0)) * L::splat(-layer.b)
+}
+
+/// [`LayerCore::tiny_height`] of a layer with falloff `b`: 2^-100/|b| (+∞ for b = 0),
+/// formed once per scene.
+pub(crate) fn tiny_height(b: f32) -> f32 {
+    TWO_M100 / b.abs()
 }
 
 /// 2^-100.
