@@ -107,8 +107,8 @@ fn packet_norm<L: Lane, const UNIT: bool>(p: &PacketIn<L>) -> ((L, L), [L; 3]) {
 fn height_scaled<L: Lane, const AXIS: usize>(p: &PacketIn<L>) -> L {
     // Heights below 2^-62 give +0 instead of a subnormal (a microcode assist of ~200
     // cycles per product on Intel): the scaled height is read only where y − h0 or the
-    // exponent saturates, where so small a height does not count (`depth_args_of`), and
-    // by the guard, which it keeps at +0.
+    // exponent saturates, where so small a height does not count (`depth_args_of`); the
+    // guard reads the height itself (`packet_geom`).
     let y = p.o[AXIS];
     L::select(y.abs().lt(L::splat(TWO_M62)), L::splat(0.0), y) * L::splat(TWO_M64)
 }
