@@ -696,6 +696,25 @@ fn exp2m1_exhaustive() {
                 // NaN → NaN: checked by `x8_and_scalar`.
                 continue;
             }
+            // `exp2m1_in_range` (no clamp): the same bits within [-64, 127], and in its
+            // margins [-64.5, -64) and (127, 127.25] −1 exactly and within the bound.
+            if (-64.5..=127.25).contains(&x) {
+                let z = math::exp2m1_in_range(x);
+                if (-64.0..=127.0).contains(&x) {
+                    st.fails.check(z.to_bits() == y[l].to_bits(), || {
+                        format!("exp2m1_in_range({x:e}) = {z:e}, exp2m1 {:e}", y[l])
+                    });
+                } else if x < -64.0 {
+                    st.fails.check(z == -1.0, || {
+                        format!("exp2m1_in_range({x:e}) = {z:e}, want -1")
+                    });
+                } else {
+                    let r = (x as f64 * core::f64::consts::LN_2).exp_m1();
+                    st.fails.check(ulp_err(z, r) <= EXP2M1_MAX_ULP, || {
+                        format!("exp2m1_in_range({x:e}) = {z:e}, want {r:e}")
+                    });
+                }
+            }
             if x < -64.0 {
                 // 2^x < 2^-64: −1 exactly (what 2^x − 1 rounds to).
                 st.fails.check(y[l] == -1.0, || {

@@ -142,6 +142,24 @@ fn camera(rng: &mut Rng, w: usize, h: usize) -> Camera {
     }
 }
 
+/// A perspective camera upright in a scene whose up is the axis `up`: every row of its
+/// frame has one u = dot(d, up) (d_u ⊥ up exactly), the rows the own kernel runs with a
+/// product for the division of g' (`RowFactor`).
+fn upright_camera(rng: &mut Rng, w: usize, h: usize, up: Vec3) -> Camera {
+    let pos = Vec3::new(
+        rng.range(-50.0, 50.0),
+        rng.range(-5.0, 30.0),
+        rng.range(-50.0, 50.0),
+    );
+    let fwd = loop {
+        let f = rng.unit();
+        if f.cross(up).length() > 0.1 {
+            break f;
+        }
+    };
+    Camera::perspective(pos, fwd, up, rng.range(0.2, 2.8), w as f32 / h as f32).unwrap()
+}
+
 fn convention(rng: &mut Rng, cam: &Camera) -> DepthConvention {
     let persp = cam.projection() == Projection::Perspective;
     match rng.below(4) {
@@ -445,6 +463,7 @@ fn own_kernel_within_the_accuracy_bound() {
     assert_eq!(BIG, 2f32.powi(120));
     let mut rng = Rng(0x0dd_ba11);
     let (mut own, mut declined, mut pixels, mut worst) = (0, 0, 0usize, 0.0f64);
+    let (mut uniform_frames, mut uniform_rows) = (0, 0);
     let (mut dt_max, mut dl_max) = (0.0f32, 0.0f64);
     let (mut dz_t, mut dz_l) = (0.0f32, 0.0f64);
     for case in 0..240 {
@@ -472,7 +491,17 @@ fn own_kernel_within_the_accuracy_bound() {
             _ => {}
         }
         let scene = Scene::new(desc.clone()).unwrap();
-        let cam = camera(&mut rng, w, h);
+        // Every other frame from an upright camera (the scene's up, or +y where that is
+        // not an axis).
+        let cam = if case % 2 == 0 {
+            let up = [Vec3::X, Vec3::Y, Vec3::Z]
+                .into_iter()
+                .find(|&a| a == desc.up)
+                .unwrap_or(Vec3::Y);
+            upright_camera(&mut rng, w, h, up)
+        } else {
+            camera(&mut rng, w, h)
+        };
         let conv = convention(&mut rng, &cam);
         let own_frame = scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap();
         if own_frame {
@@ -480,6 +509,9 @@ fn own_kernel_within_the_accuracy_bound() {
         } else {
             declined += 1;
         }
+        let rows = scene.fog_pass_uniform_rows(&cam, w, h, conv).unwrap();
+        uniform_frames += usize::from(rows > 0);
+        uniform_rows += rows;
         let depth = depths(&mut rng, conv, w * h);
         let d = Depth {
             values: &depth,
@@ -575,7 +607,15 @@ fn own_kernel_within_the_accuracy_bound() {
             if own_zmm {
                 // The AVX2 lanes' results: within the bound too, and near the AVX-512
                 // lanes' (|d| and the phase denominators within a few 2⁻²⁴ of each
-                // other: T within 4e-7, L_in within 1e-6 of the colour scale).
+                // other: T within 4e-7 plus what a few 2⁻²⁴ of t do to τ, which the
+                // problem's condition 1 + |Δ| amplifies (t = depth/|d| for distance
+                // depth; found at Δ ≈ 10: |dT| 4.8e-7); L_in within 1e-6 of the colour
+                // scale).
+                let layer = &desc.height_fog[0];
+                let delta = (f64::from(layer.falloff)
+                    * ray.direction.dot(desc.up.normalize()) as f64
+                    * ray.t as f64)
+                    .abs();
                 let l2 = [0, 1, 2].map(|c| avx2[0][3 * i + c]);
                 let t2 = [0, 1, 2].map(|c| recover_t(avx2[1][3 * i + c], l2[c]));
                 let (_, chk2) = check_pixel(&desc, &ray, t2, l2, ctx);
@@ -583,9 +623,15 @@ fn own_kernel_within_the_accuracy_bound() {
                 for c in 0..3 {
                     dz_t = dz_t.max((t[c] - t2[c]).abs());
                     dz_l = dz_l.max((l[c] - l2[c]).abs() as f64 / scale);
+                    // (|Δ| capped: infinite on sky rays, whose τ converges; 0 · ∞ where
+                    // T = 0 and τ = ∞: `max` takes the 0.)
+                    let cond = t[c] as f64 * r.tau[c] * (1.0 + delta.min(100.0));
+                    let allow = 4e-7 + cond.max(0.0) * 8.0 * 2f64.powi(-24);
                     assert!(
-                        (t[c] - t2[c]).abs() <= 4e-7,
-                        "T, AVX-512 vs AVX2: {}",
+                        ((t[c] - t2[c]).abs() as f64) <= allow,
+                        "T, AVX-512 vs AVX2: {} vs {}: {}",
+                        t[c],
+                        t2[c],
                         ctx()
                     );
                     assert!(
@@ -608,13 +654,14 @@ fn own_kernel_within_the_accuracy_bound() {
         }
     }
     eprintln!(
-        "own kernel: {own} frames, declined {declined}, {pixels} pixels, worst ratio to the \
+        "own kernel: {own} frames ({uniform_frames} with {uniform_rows} rows of constant b·u), \
+         declined {declined}, {pixels} pixels, worst ratio to the \
          bound {worst:.3}; vs batch API: max |dT| {dt_max:.2e}, max |dL|/C {dl_max:.2e}; \
          AVX-512 vs AVX2 lanes: max |dT| {dz_t:.2e}, max |dL|/C {dz_l:.2e}"
     );
     assert!(
-        own >= 60 && declined >= 20,
-        "own {own}, declined {declined}"
+        own >= 60 && declined >= 20 && uniform_frames >= 20,
+        "own {own}, declined {declined}, with rows of constant b·u {uniform_frames}"
     );
 }
 

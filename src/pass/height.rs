@@ -50,12 +50,18 @@
 //! the bound on τ allows; none on AVX-512 lanes, where `exp2_nonpos_table_mul` takes the
 //! exact product) and `exp2_nonpos`'s 1.09 ULP (`exp2_nonpos_table_mul`'s 1.0 there).
 //! `tests/pass.rs` checks every pixel of random frames against the batch API.
+//!
+//! Where u is the same along a row (a camera upright in the scene), the row forms g' as
+//! exp2m1(y')·(n·c) with c = 1/(b2·u) a constant of the row: no division per pixel
+//! ([`RowFactor`], which gives its ranges and its error, about one ULP more).
 
 use super::camera::{DepthPlan, FramePlan, RowPlan};
 use super::RowColour;
 use crate::kernel::Single;
 use crate::light::Phase;
-use crate::math::{exp2_nonpos, exp2_nonpos_table_mul, exp2m1, exp_neg_fast, Lane};
+use crate::math::{
+    exp2_nonpos, exp2_nonpos_table_mul, exp2m1, exp2m1_in_range, exp_neg_fast, Lane,
+};
 use crate::medium::volume::clamp_colour;
 use crate::scene::{Scene, UpAxis};
 use crate::Tier;
@@ -478,7 +484,75 @@ pub(crate) struct HeightPass {
     ndc: [f32; 5],
     /// The frame's T_BIG: rays are clamped to this length.
     t_big: f32,
+    /// u = d[axis] is the same for every pixel of a row (an axis up with `d_u[axis]` = 0,
+    /// an upright camera), and 2⁻³⁰ ≤ n_min ≤ n_max ≤ 2³⁰: rows may take [`RowFactor`].
+    row_uniform: bool,
+    /// The least |b2·u| of a row that takes [`RowFactor`]: 2⁻³⁰ and max_c k_c·n_max·2⁻²⁰.
+    uni_lo: f32,
 }
+
+/// A row's constants where u = dot(d, up), hence b2·u, is the same for all its pixels
+/// (an axis up with d_u[axis] = 0: a camera upright in the scene, as `Camera::perspective`
+/// builds it from the scene's up axis). There g' = n·t·exp2m1(y')/y' = exp2m1(y')·(n·c)
+/// with c = 1/(b2·u) rounded once from f64, since y' = (b2·u)·t: a product instead of the
+/// quotient (its `vrcp14ps` and three refining operations), no [`PassLane::away_from_zero`]
+/// (no 0/0 to avoid), and t clamped to [t_lo, t_hi] instead of [0, T_BIG], which keeps y'
+/// within [`exp2m1_in_range`]'s domain (its clamp left out): eight operations fewer per
+/// packet.
+/// - t_lo = 2⁻⁶⁰/|b2·u|, so |y'| ≥ 2⁻⁶⁰ and exp2m1(y') is resolved relative to itself;
+///   a shorter ray's τ is at most k_max·n_max·t_lo ≤ 2⁻⁴⁰ (where |b2·u| ≥
+///   [`HeightPass::uni_lo`]), so T = 1 and L_in = 0 in f32, as for t = 0.
+/// - 2⁻³⁰ ≤ |b2·u| ≤ 2³⁰ with 2⁻³⁰ ≤ n ≤ 2³⁰ (`HeightPass::row_uniform`): c, t_lo and n·c
+///   are within 2^±60 and g' ≥ 2⁻⁶¹·2⁻⁶⁰, so nothing is subnormal.
+/// - Error: c and n·c one rounding each where the quotient had 0.563 ULP; y' = (b2·u)·t is
+///   rounded once more than the quotient's denominator saw (which cancelled it near y' =
+///   0): about one ULP more of τ than the module documentation's general path.
+#[derive(Clone, Copy)]
+struct RowFactor {
+    on: bool,
+    /// b2·u in f32 (the general path's `b2 * u`, the same bits).
+    b2u: f32,
+    /// 1/(b2·u), rounded once from f64.
+    c: f32,
+    /// 2⁻⁶⁰/|b2·u|.
+    t_lo: f32,
+    /// min(T_BIG, 126/(b2·u)) where b2·u > 0, min(T_BIG, 63/|b2·u|) where it is < 0: |y'|
+    /// within `exp2m1_in_range`'s domain, beyond which g' is what `exp2m1`'s clamp gives
+    /// (y' ≤ −63: exp2m1 is −1 in f32) or T = 0 either way (y' ≥ 126: τ ≥ K·2¹²⁶·n/(|b|·|u|)
+    /// ≥ 2.5e3, the frame check K_min/|b| ≥ 3e-35 with n ≥ |u|).
+    t_hi: f32,
+}
+
+impl RowFactor {
+    #[inline(always)]
+    fn of(hp: &HeightPass, rp: &RowPlan) -> RowFactor {
+        if hp.row_uniform {
+            let b2u = hp.b2 * rp.d[hp.axis];
+            let a = b2u.abs();
+            if a >= hp.uni_lo && a <= UNI_HI {
+                return RowFactor {
+                    on: true,
+                    b2u,
+                    c: (1.0 / f64::from(b2u)) as f32,
+                    t_lo: (f64::from(TINY) / f64::from(a)) as f32,
+                    t_hi: hp
+                        .t_big
+                        .min((if b2u > 0.0 { 126.0 } else { 63.0 } / f64::from(a)) as f32),
+                };
+            }
+        }
+        RowFactor {
+            on: false,
+            b2u: 0.0,
+            c: 0.0,
+            t_lo: 0.0,
+            t_hi: 0.0,
+        }
+    }
+}
+
+/// The largest |b2·u| of a row that takes [`RowFactor`] (2³⁰).
+const UNI_HI: f32 = 1_073_741_824.0;
 
 /// t = depth.
 const LINEAR: usize = 0;
@@ -561,6 +635,15 @@ impl HeightPass {
             return None;
         }
         let t_big = t_big as f32;
+        // Rows take `RowFactor` where u is constant along them (see there for the bounds).
+        let k_max = ln_k_max.exp() * core::f64::consts::LOG2_E;
+        let row_uniform =
+            axis < 3 && plan.d_u[axis] == 0.0 && n_min >= 2f64.powi(-30) && n_max <= 2f64.powi(30);
+        let uni_lo = if ln_k.is_empty() {
+            2f64.powi(-30)
+        } else {
+            2f64.powi(-30).max(k_max * n_max * 2f64.powi(-20))
+        };
         // (σ_c = 0 stays 0: e^(−a0) may be +∞ here, where no channel has extinction.)
         let k64 = layer.sigma_t.map(|s| {
             if s > 0.0 {
@@ -628,7 +711,18 @@ impl HeightPass {
             x8: scene.pass_lanes_8,
             zmm: !scene.no_avx512_dispatch && crate::math::avx512_detected(),
             t_big,
+            row_uniform: row_uniform && uni_lo <= f64::from(UNI_HI),
+            uni_lo: uni_lo as f32,
         })
+    }
+}
+
+impl HeightPass {
+    /// How many of the frame's rows take [`RowFactor`] (`Scene::fog_pass_uniform_rows`).
+    pub(crate) fn uniform_rows(&self, plan: &FramePlan, height: usize) -> usize {
+        (0..height)
+            .filter(|&y| RowFactor::of(self, &plan.row(y)).on)
+            .count()
     }
 }
 
@@ -791,12 +885,13 @@ fn row<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const FAST:
     bufs: &mut Buffers<W>,
 ) {
     let rp = plan.row(y);
+    let rf = RowFactor::of(hp, &rp);
     let width = depth.len();
     let n_lanes = W::LANES;
     let full = width / n_lanes * n_lanes;
     for (b, block) in depth[..full].chunks(n_lanes * BLOCK).enumerate() {
         let x = b * n_lanes * BLOCK;
-        block_of::<R, W, PH, GREY, FAST>(hp, plan, &rp, us, x, block, n_lanes, bufs, &mut out);
+        block_of::<R, W, PH, GREY, FAST>(hp, plan, &rp, &rf, us, x, block, n_lanes, bufs, &mut out);
     }
     if full < width {
         // The tail, padded into one packet (depth 0 in the dead lanes, dropped).
@@ -804,7 +899,7 @@ fn row<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const FAST:
         let padded = &mut padded[..n_lanes];
         padded[..width - full].copy_from_slice(&depth[full..]);
         let n = width - full;
-        block_of::<R, W, PH, GREY, FAST>(hp, plan, &rp, us, full, padded, n, bufs, &mut out);
+        block_of::<R, W, PH, GREY, FAST>(hp, plan, &rp, &rf, us, full, padded, n, bufs, &mut out);
     }
 }
 
@@ -861,6 +956,7 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     hp: &HeightPass,
     plan: &FramePlan,
     rp: &RowPlan,
+    rf: &RowFactor,
     us: &[f32],
     x_start: usize,
     depth: &[f32],
@@ -933,7 +1029,7 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
         super::prefetch_read(dv.as_ptr().wrapping_add(BLOCK * n_lanes));
         let d = direction(plan, rp, W::load(&us[x..]));
         x += n_lanes;
-        let (yv, nt, inv_n) = geometry(hp, d, W::load(dv));
+        let (yv, nt, inv_n) = geometry(hp, rf, d, W::load(dv));
         *y = yv;
         *g = nt;
         if PH == 1 {
@@ -969,11 +1065,16 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
             x += n_lanes;
         }
     }
-    // 2. g' = n·t·exp2m1(y')/y' (= n·t·E(Δ)·ln 2), clamped to f32::MAX where some K_c = 0
-    // (`HeightPass::clamp_g`).
+    // 2. g' = n·t·exp2m1(y')/y' (= n·t·E(Δ)·ln 2), or exp2m1(y')·(n·c) in a row that
+    // takes `RowFactor`, clamped to f32::MAX where some K_c = 0 (`HeightPass::clamp_g`).
     let clamp_g = hp.clamp_g;
+    let uni = rf.on;
     for ((g, g3), &y) in gs.iter_mut().zip(gs3.iter_mut()).zip(ys.iter()) {
-        let gv = W::quotient(exp2m1(y), y) * *g;
+        let gv = if uni {
+            exp2m1_in_range(y) * *g
+        } else {
+            W::quotient(exp2m1(y), y) * *g
+        };
         let gv = if clamp_g {
             Lane::min(W::splat(f32::MAX), gv)
         } else {
@@ -1072,9 +1173,10 @@ fn in_scattered<W: PassLane>(c: W, t: W) -> W {
 }
 
 /// For the rays from the eye along `d` (any length) to depth values `depth`: y' = −Δ·log2(e)
-/// = b2·u·t kept away from 0 (E(Δ) = 1 below 2^-60), n·t, and 1/n.
+/// = b2·u·t kept away from 0 (E(Δ) = 1 below 2^-60), n·t, and 1/n; in a row that takes
+/// [`RowFactor`], y' = (b2·u)·t with t ≥ t_lo, n·c, and 1/n.
 #[inline(always)]
-fn geometry<W: PassLane>(hp: &HeightPass, d: [W; 3], depth: W) -> (W, W, W) {
+fn geometry<W: PassLane>(hp: &HeightPass, rf: &RowFactor, d: [W; 3], depth: W) -> (W, W, W) {
     let n2 = d[0].mul_add(d[0], d[1].mul_add(d[1], d[2] * d[2]));
     let inv_n = rsqrt(n2);
     let n = n2 * inv_n;
@@ -1097,6 +1199,10 @@ fn geometry<W: PassLane>(hp: &HeightPass, d: [W; 3], depth: W) -> (W, W, W) {
     // Negative depths to 0 (`Lane::max` is maxps: NaN, the second operand, stays NaN);
     // rays clamped to the frame's T_BIG (`Lane::min`: NaN stays NaN). Not wide's `min`/`max`, which
     // return the other operand for NaN.
+    if rf.on {
+        let t = Lane::min(W::splat(rf.t_hi), Lane::max(W::splat(rf.t_lo), t));
+        return (W::splat(rf.b2u) * t, n * W::splat(rf.c), inv_n);
+    }
     let t = Lane::min(W::splat(hp.t_big), Lane::max(W::splat(0.0), t));
     let y = (W::splat(hp.b2) * u) * t;
     let y = W::away_from_zero(y);

@@ -278,6 +278,23 @@ impl Scene {
             && HeightPass::new(self, &plan).is_some())
     }
 
+    /// How many rows of the frame the own kernel runs with a constant b·u (its
+    /// `RowFactor`: a product for the division of g'); 0 where it does not run. For tests.
+    #[doc(hidden)]
+    pub fn fog_pass_uniform_rows(
+        &self,
+        camera: &Camera,
+        width: usize,
+        height: usize,
+        convention: DepthConvention,
+    ) -> Result<usize, PassError> {
+        let plan = FramePlan::new(camera, width, height, convention)?;
+        if self.exact_pass || FrameCull::new(self, &plan, width, height).is_some() {
+            return Ok(0);
+        }
+        Ok(HeightPass::new(self, &plan).map_or(0, |hp| hp.uniform_rows(&plan, height)))
+    }
+
     /// The tile size of [`Scene::fog_pass_tile_candidates`]: (width, height) in pixels.
     #[doc(hidden)]
     pub fn tile_size() -> (usize, usize) {
