@@ -1669,6 +1669,70 @@ fn own_kernel_against_batch(
     counts
 }
 
+/// The own kernel's rows of constant b·u (`RowFactor`, an upright camera) at their edges:
+/// a level camera whose rows pass the horizon (|b2·u| from about 0 on the middle row up
+/// to the frame's edges), falloffs whose rows all fall below the bound
+/// `HeightPass::uni_lo` on |b2·u| (1e-9) or some of them (1e-5, 1e-4), steep and negative ones,
+/// and depths from −1 and 0 through 1e-30 (below t_lo, raised to it) to 1e6 and +∞ (t
+/// clamped at 63/|b2·u| looking up and 126/|b2·u| looking down): every pixel against the
+/// batch API (T exactly 0 and 1 where the batch API's is) and the f64 reference's bound,
+/// and frames with rows of both forms.
+#[test]
+fn own_kernel_rows_of_constant_bu_at_their_edges() {
+    let (w, h) = (23, 41);
+    let depths = [
+        -1.0f32,
+        0.0,
+        1e-30,
+        1e-12,
+        1e-3,
+        0.7,
+        13.0,
+        450.0,
+        2e4,
+        1e6,
+        f32::INFINITY,
+    ];
+    let depth: Vec<f32> = (0..w * h)
+        .map(|i| depths[(i * 7 + i / w) % depths.len()])
+        .collect();
+    let (mut frames, mut mixed) = (0, 0);
+    for &falloff in &[0.1f32, 3.0, -0.7, 1e-9, 1e-5, 1e-4] {
+        for &(cam_y, pitch) in &[(2.0f32, 0.0f32), (0.5, 0.05), (-3.0, -0.02), (8.0, 0.3)] {
+            let desc = sunlit_layer(
+                falloff,
+                Vec3::ZERO,
+                Component {
+                    scattering: Vec3::new(0.3, 0.05, 0.01),
+                    absorption: Vec3::new(0.02, 0.0, 0.0),
+                    phase: Phase::HenyeyGreenstein(0.8),
+                },
+            );
+            let scene = Scene::new(desc.clone()).unwrap();
+            let fwd = Vec3::new(0.0, pitch, -1.0).normalize();
+            let cam = Camera::perspective(
+                Vec3::new(0.0, cam_y, 0.0),
+                fwd,
+                Vec3::Y,
+                1.1,
+                w as f32 / h as f32,
+            )
+            .unwrap();
+            let conv = DepthConvention::LinearView;
+            if !scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap() {
+                continue;
+            }
+            frames += 1;
+            let rows = scene.fog_pass_uniform_rows(&cam, w, h, conv).unwrap();
+            mixed += usize::from(rows > 0 && rows < h);
+            let what = format!("falloff {falloff}, camera y {cam_y}, pitch {pitch}, {rows} rows");
+            own_kernel_against_batch(&scene, &desc, &cam, (w, h), &depth, &what);
+        }
+    }
+    eprintln!("{frames} frames, {mixed} with rows of both forms");
+    assert!(frames >= 20 && mixed >= 6, "{frames} frames, {mixed} mixed");
+}
+
 /// An eye far above thin fog (b = 0.1, ρ₀ from e^-25 to e^-60): the own kernel runs
 /// (its clamp on t, T_BIG, is chosen per frame; with 1e20 fixed it declined such frames
 /// from about 230 above the base), and agrees with the batch API and the reference,
