@@ -484,7 +484,7 @@ pub(crate) struct HeightPass {
     ndc: [f32; 5],
     /// The frame's T_BIG: rays are clamped to this length.
     t_big: f32,
-    /// u = d[axis] is the same for every pixel of a row (an axis up with `d_u[axis]` = 0,
+    /// u = `d[axis]` is the same for every pixel of a row (an axis up with `d_u[axis]` = 0,
     /// an upright camera), and 2⁻³⁰ ≤ n_min ≤ n_max ≤ 2³⁰: rows may take [`RowFactor`].
     row_uniform: bool,
     /// The least |b2·u| of a row that takes [`RowFactor`]: 2⁻³⁰ and max_c k_c·n_max·2⁻²⁰.
@@ -492,7 +492,7 @@ pub(crate) struct HeightPass {
 }
 
 /// A row's constants where u = dot(d, up), hence b2·u, is the same for all its pixels
-/// (an axis up with d_u[axis] = 0: a camera upright in the scene, as `Camera::perspective`
+/// (an axis up with `d_u[axis]` = 0: a camera upright in the scene, as `Camera::perspective`
 /// builds it from the scene's up axis). There g' = n·t·exp2m1(y')/y' = exp2m1(y')·(n·c)
 /// with c = 1/(b2·u) rounded once from f64, since y' = (b2·u)·t: a product instead of the
 /// quotient (its `vrcp14ps` and three refining operations), no [`PassLane::away_from_zero`]
