@@ -272,10 +272,9 @@ impl Scene {
         height: usize,
         convention: DepthConvention,
     ) -> Result<bool, PassError> {
-        let plan = FramePlan::new(camera, width, height, convention)?;
-        Ok(!self.exact_pass
-            && FrameCull::new(self, &plan, width, height).is_none()
-            && HeightPass::new(self, &plan).is_some())
+        Ok(self
+            .own_height_pass(camera, width, height, convention)?
+            .is_some())
     }
 
     /// How many rows of the frame the own kernel runs with a constant b·u (its
@@ -288,11 +287,26 @@ impl Scene {
         height: usize,
         convention: DepthConvention,
     ) -> Result<usize, PassError> {
+        Ok(self
+            .own_height_pass(camera, width, height, convention)?
+            .map_or(0, |(plan, hp)| hp.uniform_rows(&plan, height)))
+    }
+
+    /// The frame's plan and own kernel constants where [`Scene::fog_pass`] runs the own
+    /// kernel (the choice `fog_pass` makes: no exact pass, no volumes to cull, a frame
+    /// `HeightPass::new` accepts).
+    fn own_height_pass(
+        &self,
+        camera: &Camera,
+        width: usize,
+        height: usize,
+        convention: DepthConvention,
+    ) -> Result<Option<(FramePlan, HeightPass)>, PassError> {
         let plan = FramePlan::new(camera, width, height, convention)?;
         if self.exact_pass || FrameCull::new(self, &plan, width, height).is_some() {
-            return Ok(0);
+            return Ok(None);
         }
-        Ok(HeightPass::new(self, &plan).map_or(0, |hp| hp.uniform_rows(&plan, height)))
+        Ok(HeightPass::new(self, &plan).map(|hp| (plan, hp)))
     }
 
     /// The tile size of [`Scene::fog_pass_tile_candidates`]: (width, height) in pixels.
