@@ -320,8 +320,7 @@ pub(crate) fn eval_packet<
 /// unchanged, on the Intel Xeon of the forty-third session; README).
 ///
 /// The third value says whether the packet took the plain tame path, no widened lanes
-/// (then its guard is 0, and its exponent −0 for unit directions: see
-/// [`depth_with_tame`]).
+/// (then its exponent is −0 for unit directions: see [`depth_with_tame`]).
 #[inline(always)]
 pub(crate) fn single_args<
     L: Lane,
@@ -761,11 +760,15 @@ fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
                 } else {
                     crate::light::dot3(*dir, scene.up.to_array())
                 };
-                let g = RayGeom::new(geom.y, geom.y_s, u, zero, zero, (one, zero));
-                RayGeom {
-                    guard: geom.guard,
-                    ..g
-                }
+                RayGeom::new(geom.y, geom.y_s, u, zero, zero, (one, zero))
+            };
+            // `ordered_volumes` replaces t_m by the entry points', so the ray's guard is
+            // taken with the NaN of an invalid t that geom.t_m carries (t_m − t_m: 0 or
+            // NaN; a mantissa is never infinite).
+            #[allow(clippy::eq_op)]
+            let unit_geom = RayGeom {
+                guard: geom.guard + (geom.t_m - geom.t_m),
+                ..unit_geom
             };
             let s_a = if limits.interval { limits.start } else { 0.0 };
             let d = ordered_volumes(
@@ -1146,7 +1149,7 @@ fn run_single<
                 SKIP_TAME_BLOCKS
             };
         }
-        // A block of tame packets skips their zero guard and exponent (same bits).
+        // A block of tame packets skips their exponent (same bits).
         if all_tame && kind == 1 {
             depth_stages_tame::<L, FAST, UNIT>(&args[..m], &mut phis, &mut depth);
         } else {
@@ -1643,9 +1646,8 @@ fn depth_stages<L: Lane, const FAST: bool>(
 }
 
 /// [`depth_stages`] for a block of packets that all took the tame stage 1 (a falloff
-/// of kind 1), with the same bits: their guard is 0 and, for unit directions, their
-/// exponent −0, so the density stage skips adding them (two loads and two adds per
-/// packet).
+/// of kind 1), with the same bits: for unit directions their exponent is −0, so the
+/// density stage skips adding it (a load and an add per packet).
 #[inline(always)]
 fn depth_stages_tame<L: Lane, const FAST: bool, const UNIT: bool>(
     args: &[DepthArgs<L>],

@@ -192,6 +192,25 @@ fn x16_equals_scalar_for_every_special_function() {
                 })
                 .sum(),
         ),
+        // With t's validity in the mantissa (`RayGeom::new`'s t): NaN exactly for NaN and
+        // negative x (not −0).
+        (
+            "frexp_clamped_nonneg",
+            mismatches(
+                "frexp_clamped_nonneg",
+                |x| {
+                    let (a, b) = x.frexp_clamped_nonneg(-151.0, 2_097_152.0);
+                    let ok = b.ge(f32x16::splat(-151.0)) & b.le(f32x16::splat(2_097_152.0));
+                    let nan_e = Lane::select(ok, f32x16::splat(0.0), f32x16::splat(1.0));
+                    [a, Lane::select(x.eq(x), b, nan_e)]
+                },
+                |x| {
+                    let (a, b) = Lane::frexp_clamped_nonneg(x, -151.0, 2_097_152.0);
+                    assert_eq!(a.is_nan(), x.is_nan() || x < 0.0, "{x:e}");
+                    [a, if x.is_nan() { 0.0 } else { b }]
+                },
+            ),
+        ),
         // Ties to even (wide 1's `f32x16::round` rounds ties away from zero).
         ("round", one!(Lane::round)),
         ("sqrt", one!(Lane::sqrt)),

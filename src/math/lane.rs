@@ -160,6 +160,16 @@ pub trait Lane:
         let inf = self.abs().eq(Self::splat(f32::INFINITY));
         (m, Self::select(inf, Self::splat(hi), e))
     }
+    /// [`Lane::frexp_clamped`] of a segment end t, whose mantissa also says whether t is
+    /// valid: NaN where t is negative (not −0) or NaN (here a select; AVX-512's
+    /// `vgetmantps` gives it by its sign control at no cost). `RayGeom::new` then needs
+    /// no guard term for t: every optical depth it forms takes t's mantissa as a factor.
+    #[inline(always)]
+    fn frexp_clamped_nonneg(self, lo: f32, hi: f32) -> (Self, Self) {
+        let (m, e) = self.frexp_clamped(lo, hi);
+        let valid = self.ge(Self::splat(0.0));
+        (Self::select(valid, m, Self::splat(f32::NAN)), e)
+    }
     /// `table[i]` in each lane, with `i` the low 4 bits of that lane's bits (`vpermps`
     /// with AVX-512; here lane by lane).
     #[inline(always)]

@@ -311,17 +311,35 @@ impl Lane for Zmm {
     /// for a NaN one).
     #[inline(always)]
     fn frexp_clamped(self, lo: f32, hi: f32) -> (Self, Self) {
+        // `vgetmantps` gives ±1 for ±0: zeroed there by its mask (lanes ≠ 0, NaN
+        // included), with no mask inversion.
         let (e, m) = unsafe {
+            let nonzero = _mm512_cmp_ps_mask::<_CMP_NEQ_UQ>(self.0, _mm512_setzero_ps());
             (
                 Zmm(_mm512_getexp_ps(self.0)),
-                Zmm(_mm512_getmant_ps::<_MM_MANT_NORM_1_2, _MM_MANT_SIGN_SRC>(
-                    self.0,
-                )),
+                Zmm(_mm512_maskz_getmant_ps::<
+                    _MM_MANT_NORM_1_2,
+                    _MM_MANT_SIGN_SRC,
+                >(nonzero, self.0)),
             )
         };
-        let zero = self.eq(Zmm::splat(0.0));
-        let e = e.max(Zmm::splat(lo)).min(Zmm::splat(hi));
-        (Zmm::select(zero, Zmm::splat(0.0), m), e)
+        (m, e.max(Zmm::splat(lo)).min(Zmm::splat(hi)))
+    }
+    #[inline(always)]
+    fn frexp_clamped_nonneg(self, lo: f32, hi: f32) -> (Self, Self) {
+        // As `frexp_clamped`, with the sign control that gives NaN for a negative
+        // source (−0 is zeroed by the mask first; −inf and negative subnormals give NaN).
+        let (e, m) = unsafe {
+            let nonzero = _mm512_cmp_ps_mask::<_CMP_NEQ_UQ>(self.0, _mm512_setzero_ps());
+            (
+                Zmm(_mm512_getexp_ps(self.0)),
+                Zmm(_mm512_maskz_getmant_ps::<
+                    _MM_MANT_NORM_1_2,
+                    _MM_MANT_SIGN_NAN,
+                >(nonzero, self.0)),
+            )
+        };
+        (m, e.max(Zmm::splat(lo)).min(Zmm::splat(hi)))
     }
     #[inline(always)]
     fn frexp(self) -> (Self, Self) {
@@ -569,6 +587,25 @@ mod tests {
                         )
                     })
                     .sum(),
+            ),
+            // The same with t's validity in the mantissa: NaN exactly for NaN and
+            // negative x (not −0) in both forms, the same bits elsewhere.
+            (
+                "frexp_clamped_nonneg",
+                mismatches(
+                    "frexp_clamped_nonneg",
+                    |x| {
+                        let (a, b) = x.frexp_clamped_nonneg(-151.0, 2_097_152.0);
+                        let ok = b.ge(Zmm::splat(-151.0)) & b.le(Zmm::splat(2_097_152.0));
+                        let nan_e = Zmm::select(ok, Zmm::splat(0.0), Zmm::splat(1.0));
+                        [a, Zmm::select(x.eq(x), b, nan_e)]
+                    },
+                    |x| {
+                        let (a, b) = Lane::frexp_clamped_nonneg(x, -151.0, 2_097_152.0);
+                        assert_eq!(a.is_nan(), x.is_nan() || x < 0.0, "{x:e}");
+                        [a, if x.is_nan() { 0.0 } else { b }]
+                    },
+                ),
             ),
             ("round", one!(Lane::round)),
             ("sqrt", one!(Lane::sqrt)),

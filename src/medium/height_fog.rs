@@ -57,14 +57,18 @@ pub(crate) struct RayGeom<L> {
     /// frexp of u = dot(d, up) (u = 0 gives e = U_ZERO_EXPONENT + u_shift).
     pub u_m: L,
     pub u_e: L,
-    /// frexp of t (t = ±∞ gives m = ±1, e = INF_EXPONENT).
+    /// frexp of t (t = +∞ gives m = 1, e = INF_EXPONENT; t = ±0 gives m = +0). The
+    /// mantissa is NaN where t is negative or NaN ([`Lane::frexp_clamped_nonneg`]): every
+    /// optical depth is formed with it as a factor, so it carries the invalid t's NaN that
+    /// `guard` does not (a caller that replaces t_m keeps that NaN in the guard).
     pub t_m: L,
     pub t_e: L,
     /// |d| = n_m · 2^n_e.
     pub n_m: L,
     pub n_e: L,
-    /// +0 for valid rays, NaN where u or the height is not finite or t is NaN or negative;
-    /// added to the mantissa so that invalid rays give NaN instead of plausible numbers.
+    /// +0 for valid rays, NaN where u, the height or |d| is not finite (an invalid t is
+    /// `t_m`'s NaN); added to the mantissa so that invalid rays give NaN instead of
+    /// plausible numbers.
     pub guard: L,
 }
 
@@ -94,28 +98,29 @@ impl<L: Lane> RayGeom<L> {
     #[inline(always)]
     pub(crate) fn new(y: L, y_s: L, u: L, u_shift: L, t: L, norm: (L, L)) -> RayGeom<L> {
         // `frexp_clamped` (on AVX-512 two instructions clamp getexp's ±inf): the guard
-        // below makes every output of a ray with a non-finite u or t NaN, and t = +∞ gets
-        // its own exponent (t = −inf too: its guard is NaN), u = 0 U_ZERO_EXPONENT +
+        // below and t_m's NaN make every output of a ray with a non-finite u or an
+        // invalid t NaN, and t = +∞ gets its own exponent (t = −inf too: its mantissa is
+        // NaN), u = 0 U_ZERO_EXPONENT +
         // u_shift (|u_shift| ≤ 2^8: still far below every other exponent, so the same
         // results as U_ZERO_EXPONENT itself). Every exponent stays finite, so that the
         // guard's NaN survives `ldexp` (`vscalefps` in AVX-512 builds gives a number for
         // NaN · 2^±inf).
         let (u_m, u_e) = u.frexp_clamped(U_ZERO_EXPONENT, 128.0);
         let u_e = u_e + u_shift;
-        let (t_m, t_e) = t.frexp_clamped(-151.0, INF_EXPONENT);
-        // u - u is NaN exactly when u is not finite, y_s - y_s when the origin's height is
+        let (t_m, t_e) = t.frexp_clamped_nonneg(-151.0, INF_EXPONENT);
+        // u − u is NaN exactly when u is not finite, y_s − y_s when the origin's height is
         // not (NaN or ±inf in a component of o that the height reads; y_s cannot overflow
-        // for a finite o), n_m - n_m when |d| is not (±inf in any component of d). Without
-        // the last two terms (found by fuzz/height_fog) invalid rays gave plausible
-        // numbers: for a NaN or infinite height a finite τ in a homogeneous layer (b = 0
-        // never reads it), τ = 0 for |b| > 2^40 (`layer_depth`'s `min` drops a NaN), and
-        // the limits τ = +inf or 0 for a height of ±inf; for an infinite component of d
-        // off the up axis, τ = +inf.
+        // for a finite o), and (u − u)·n_m when |d| is not either (±inf in any component
+        // of d: 0·∞). Without the last two (found by fuzz/height_fog) invalid rays gave
+        // plausible numbers: for a NaN or infinite height a finite τ in a homogeneous
+        // layer (b = 0 never reads it), τ = 0 for |b| > 2^40 (`layer_depth`'s `min` drops
+        // a NaN), and the limits τ = +inf or 0 for a height of ±inf; for an infinite
+        // component of d off the up axis, τ = +inf. One FMA joins the terms (unit
+        // directions, n_m = 1: one add). A negative or NaN t needs no term: t_m is NaN
+        // there (on AVX-512 lanes at no cost; a compare and a blend took two instructions
+        // per packet).
         #[allow(clippy::eq_op)]
-        let guard = (u - u)
-            + (y_s - y_s)
-            + (norm.0 - norm.0)
-            + L::select(t.ge(L::splat(0.0)), L::splat(0.0), L::splat(f32::NAN));
+        let guard = (u - u).mul_add(norm.0, y_s - y_s);
         RayGeom {
             y,
             y_s,
@@ -172,11 +177,11 @@ pub(crate) struct DepthArgs<L> {
     /// negated where it is formed (× −2^64), which is exact, so that `exp_split` needs no
     /// negation.
     neg_u_min: L,
-    /// n_m · t_m.
+    /// n_m · t_m + the ray's guard (NaN for an invalid ray: G = m·φ·e^(−u_min) is NaN
+    /// with it, with no add of the guard in the density stage).
     m: L,
     /// n_e + t_e + the exponent of φ's remainder (n_e + t_e for a homogeneous layer).
     e: L,
-    guard: L,
 }
 
 impl<L: Lane> DepthArgs<L> {
@@ -189,7 +194,6 @@ impl<L: Lane> DepthArgs<L> {
             neg_u_min: z,
             m: z,
             e: z,
-            guard: z,
         }
     }
 }
@@ -230,9 +234,8 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
         return DepthArgs {
             dc: zero,
             neg_u_min: zero,
-            m: g.n_m * g.t_m,
+            m: g.n_m.mul_add(g.t_m, g.guard),
             e: g.n_e + g.t_e,
-            guard: g.guard,
         };
     }
     // Δ = b·u·t as mantissa (|dm| in [1, 8) or 0) and exponent.
@@ -252,7 +255,6 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
         dm.abs() * L::pow2i(de.clamp(L::splat(-100.0), L::splat(PHI_MAX_EXP)))
     }
     .max(L::splat(8.673_617e-19)); // 2^-60
-    let phi_e = (L::splat(PHI_MAX_EXP) - de).min(L::splat(0.0));
 
     // Δ·2^-64. `pow2i` needs its exponent clamped; `scale2` saturates by itself, and the
     // unclamped value gives the same bits: beyond 2^127 a negative Δ·2^-64 outweighs
@@ -318,12 +320,17 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
         let a0s = (L::splat(layer.b * TWO_M64) * (g.y - L::splat(layer.h0))).min(L::splat(1.7e38));
         (a0s + ds.min(L::splat(0.0))) * L::splat(-TWO64)
     };
+    // The exponent of G: n_e + t_e + min(PHI_MAX_EXP − de, 0), the part of 1/|Δ| that φ's
+    // clamped argument leaves out, formed as n_e + min((PHI_MAX_EXP − b_e) − u_e, t_e)
+    // (de = b_e + u_e + t_e): one instruction fewer, the same value, since every term
+    // is an integer below 2^24 in magnitude, so every sum is exact.
+    let e_phi = (L::splat(PHI_MAX_EXP - layer.b_split.e) - g.u_e).min(g.t_e);
     DepthArgs {
         dc,
         neg_u_min,
-        m: g.n_m * g.t_m,
-        e: g.n_e + g.t_e + phi_e,
-        guard: g.guard,
+        // m + the guard: the same bits as n_m·t_m for a valid ray (guard +0; n_m·t_m ≥ +0).
+        m: g.n_m.mul_add(g.t_m, g.guard),
+        e: g.n_e + e_phi,
     }
 }
 
@@ -389,8 +396,9 @@ const SKY_SHIFT_EXP: [f32; 2] = [17.0, 43.0];
 ///   assists on Intel: `camera_1e-19_free` 7.4× the time of typical data in
 ///   `examples/speedscan.rs`, forty-sixth session; a nearly level ray, Δ = −1e-19, once
 ///   sent the whole packet down the general path);
-/// - the guard is 0: t is finite and positive, y − h0 is finite (checked), and u is finite
-///   because b·u·t is finite with t > 0.
+/// - m carries no guard (the general path adds +0 to n_m·t_m ≥ +0): t is finite and
+///   positive, y − h0 is finite (checked), and u is finite because b·u·t is finite with
+///   t > 0.
 ///
 #[inline(always)]
 pub(crate) fn depth_args_tame<L: Lane>(
@@ -414,7 +422,6 @@ pub(crate) fn depth_args_tame<L: Lane>(
         neg_u_min,
         m,
         e: norm.1,
-        guard: L::splat(0.0),
     };
     (args, ok)
 }
@@ -434,10 +441,9 @@ const M_SHIFT_EXP: f32 = 32.0;
 /// four more kinds of lane (y and |d| finite in all) give the same bits after stage 3 as
 /// the general path, three of them by an exact power of two.
 /// - **Zero lanes**, t = ±0 with b·u finite: the plain arguments as they are. The
-///   general path's G is (±0)·φ·e^(−u_min) + guard = +0, with φ(2^-60) = 1 and a finite
-///   e^(−u_min) (y finite), and so is this one (m = ±0, Δ = ±0, so φ's argument is 2^-60
-///   and −u_min = −a0s·2^64; packets with widened lanes add the guard +0 in the density
-///   stage); τ = +0 at any exponent. (A depth buffer's pixel at the eye, a batch's
+///   general path's G is (n_m·(±0) + guard)·φ·e^(−u_min) = +0, with φ(2^-60) = 1 and a
+///   finite e^(−u_min) (y finite), and so is this one (m = |n_m·t| = +0, Δ = ±0, so φ's
+///   argument is 2^-60 and −u_min = −a0s·2^64); τ = +0 at any exponent. (A depth buffer's pixel at the eye, a batch's
 ///   padding: these took the general path, at 1.6× the time.)
 /// - **Near lanes**, |d|·t in [2^-52, 2^-20) or (2^31, 2^43], otherwise within the plain
 ///   bounds (|Δ| < 2^8): m = n_m·t times 2^±32
@@ -522,7 +528,7 @@ pub(crate) fn depth_args_tame_wide<L: Lane>(
     let ok = ok | sky;
     let d = bu * t;
     let ad = d.abs();
-    // t > 0: the guard is 0 here.
+    // t > 0: m carries no guard here.
     let far = ad.ge(L::splat(TAME_DELTA_MAX))
         & ad.le(L::splat(TAME_FAR_MAX))
         & t.gt(L::splat(0.0))
@@ -535,14 +541,15 @@ pub(crate) fn depth_args_tame_wide<L: Lane>(
         & m.ge(L::splat(TAME_WIDE_M_MIN))
         & m.le(L::splat(TAME_WIDE_M_MAX))
         & y_fin;
-    // Zero lanes (t = ±0): m = ±0, G = +0 after the guard (see above).
+    // Zero lanes (t = ±0): m = ±0, made +0 below (the general path's G, see above).
     let zero = t.eq(L::splat(0.0)) & abu.le(L::splat(f32::MAX)) & fin;
     let scaled = near & !ok;
     let small = m.lt(L::splat(TAME_M_MIN));
     let scale = L::select(small, L::splat(M_SHIFT), L::splat(1.0 / M_SHIFT));
     let shift = L::select(small, L::splat(-M_SHIFT_EXP), L::splat(M_SHIFT_EXP));
+    // (|m|: m ≥ +0 on every lane accepted, and +0 for t = −0.)
     let args = DepthArgs {
-        m: L::select(scaled, m * scale, m),
+        m: L::select(scaled, m * scale, m).abs(),
         e: L::select(scaled, norm.1 + shift, args.e),
         ..args
     };
@@ -600,9 +607,8 @@ pub(crate) fn depth_with<L: Lane, const FAST: bool, const B2: bool>(
 }
 
 /// [`depth_with_of`]`::<L, FAST, true, false>` for arguments from [`depth_args_tame`]
-/// (guard 0; exponent −0 where `UNIT`, the exponent of |d| = 1), with the same bits:
-/// m·φ·2^(−u_min₂) is positive, so adding the guard +0 changes nothing, nor does adding
-/// −0 to the exponent. Base 2 only: the one-layer kernels are its only callers.
+/// (exponent −0 where `UNIT`, the exponent of |d| = 1), with the same bits: adding −0 to
+/// the exponent changes nothing. Base 2 only: the one-layer kernels are its only callers.
 #[inline(always)]
 pub(crate) fn depth_with_tame<L: Lane, const FAST: bool, const UNIT: bool>(
     a: &DepthArgs<L>,
@@ -619,8 +625,8 @@ pub(crate) fn depth_with_of<L: Lane, const FAST: bool, const B2: bool, const HOM
     phi: L,
 ) -> (L, L) {
     if HOMOGENEOUS {
-        return (a.m + a.guard, a.e);
+        return (a.m, a.e);
     }
     let (em, ek) = density::<L, FAST, B2>(a);
-    (a.m * phi * em + a.guard, a.e + ek)
+    (a.m * phi * em, a.e + ek)
 }
