@@ -17,6 +17,10 @@
 //! `PLAIN=1` runs the plain pass of `benches/pass.rs` (read depth and colour, write
 //! colour; one thread) instead of the fog pass: with `H=` it shows at what frame size the
 //! frame stops fitting in the cache this process gets (the fog pass's memory stalls).
+//! `DEPTHS=k` replaces the lower half's depths, for extreme data: `zero` (0), `subnormal`
+//! (1e-40 to 1e-38), `tiny` (1e-30), `huge` (1e30), `max` (f32::MAX), `sky` (every pixel
+//! +∞). `TILT=1` rolls the camera a little (its up +Y + 0.05·X), so that no row has a
+//! constant dot(d, up) and every row takes the general form (no `RowFactor`).
 
 use analytic_fog::pass::{Camera, ColourBuffer, Depth};
 use analytic_fog::{Component, HeightFogLayer, Lighting, Phase, Scene, SceneDesc, Sun};
@@ -69,20 +73,34 @@ fn main() {
         .ok()
         .and_then(|f| f.parse().ok())
         .unwrap_or(2.0);
+    let tilt = std::env::var("TILT").is_ok_and(|v| v == "1");
     let cam = Camera::perspective(
         Vec3::new(0.0, eye_y, 0.0),
         Vec3::new(0.0, -0.15, -1.0).normalize(),
-        Vec3::Y,
+        if tilt {
+            Vec3::new(0.05, 1.0, 0.0)
+        } else {
+            Vec3::Y
+        },
         1.0,
         w as f32 / h as f32,
     )
     .unwrap();
+    let depths = std::env::var("DEPTHS").unwrap_or_default();
     let depth: Vec<f32> = (0..w * h)
         .map(|i| {
             if (i / w) < h / 2 {
-                f32::INFINITY
-            } else {
-                10.0 + (i % 97) as f32
+                return f32::INFINITY;
+            }
+            let k = (i % 97) as f32;
+            match depths.as_str() {
+                "zero" => 0.0,
+                "subnormal" => 1e-40 + k * 1e-40,
+                "tiny" => 1e-30 * (1.0 + k),
+                "huge" => 1e30 * (1.0 + k),
+                "max" => f32::MAX,
+                "sky" => f32::INFINITY,
+                _ => 10.0 + k,
             }
         })
         .collect();

@@ -1616,7 +1616,27 @@ fn own_kernel_against_batch(
     depth: &[f32],
     what: &str,
 ) -> [usize; 3] {
-    let conv = DepthConvention::LinearView;
+    own_kernel_against_batch_in(
+        scene,
+        desc,
+        cam,
+        (w, h),
+        depth,
+        DepthConvention::LinearView,
+        what,
+    )
+}
+
+/// [`own_kernel_against_batch`] for depths in convention `conv`.
+fn own_kernel_against_batch_in(
+    scene: &Scene,
+    desc: &SceneDesc,
+    cam: &Camera,
+    (w, h): (usize, usize),
+    depth: &[f32],
+    conv: DepthConvention,
+    what: &str,
+) -> [usize; 3] {
     let d = Depth {
         values: depth,
         convention: conv,
@@ -1731,6 +1751,78 @@ fn own_kernel_rows_of_constant_bu_at_their_edges() {
     }
     eprintln!("{frames} frames, {mixed} with rows of both forms");
     assert!(frames >= 20 && mixed >= 6, "{frames} frames, {mixed} mixed");
+}
+
+/// Short rays in the own kernel's general rows (a rolled camera: no row has a constant
+/// b·u) and in rows of constant b·u: depths from −1, −0 and 0 through subnormal ones
+/// (1e-45, 1e-40, 1e-38) and 1e-30 to 1e-12 (below the frame's T_LO, where t is raised to
+/// it, `HeightPass::t_lo`: subnormal depths had formed subnormal products, 18× the time
+/// of typical depths on the Intel Xeon) and some above, linear and distance depths
+/// (raised before their division, `HeightPass::d_lo`), falloffs typical, steep, tiny and
+/// negative, coefficients from 1e-3 to 30: every pixel against the batch API (T exactly
+/// 1 where its T is, so the colour is left as it was) and the reference's bound.
+#[test]
+fn own_kernel_short_and_subnormal_depths() {
+    let (w, h) = (21, 9);
+    let depths = [
+        -1.0f32, -0.0, 0.0, 1e-45, 1e-40, 1e-38, 1e-30, 1e-20, 1e-12, 1e-6, 0.3, 40.0,
+    ];
+    let depth: Vec<f32> = (0..w * h)
+        .map(|i| depths[(i * 5 + i / w) % depths.len()])
+        .collect();
+    let (mut frames, mut general, mut unit) = (0, 0, 0);
+    for &falloff in &[0.1f32, 3.0, 1e-9, -0.7] {
+        for &scale in &[1e-3f32, 1.0, 30.0] {
+            for &roll in &[0.0f32, 0.08] {
+                for conv in [DepthConvention::LinearView, DepthConvention::Distance] {
+                    let desc = sunlit_layer(
+                        falloff,
+                        Vec3::ZERO,
+                        Component {
+                            scattering: Vec3::new(0.3, 0.05, 0.01) * scale,
+                            absorption: Vec3::new(0.02, 0.0, 0.0) * scale,
+                            phase: Phase::HenyeyGreenstein(0.8),
+                        },
+                    );
+                    let scene = Scene::new(desc.clone()).unwrap();
+                    let cam = Camera::perspective(
+                        Vec3::new(0.0, 1.5, 0.0),
+                        Vec3::new(0.0, -0.1, -1.0).normalize(),
+                        Vec3::new(roll, 1.0, 0.0),
+                        1.1,
+                        w as f32 / h as f32,
+                    )
+                    .unwrap();
+                    if !scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap() {
+                        continue;
+                    }
+                    frames += 1;
+                    let rows = scene.fog_pass_uniform_rows(&cam, w, h, conv).unwrap();
+                    general += usize::from(rows == 0);
+                    unit += usize::from(rows > 0);
+                    let what = format!(
+                        "falloff {falloff}, scale {scale}, roll {roll}, {conv:?}, {rows} rows"
+                    );
+                    let counts = own_kernel_against_batch_in(
+                        &scene,
+                        &desc,
+                        &cam,
+                        (w, h),
+                        &depth,
+                        conv,
+                        &what,
+                    );
+                    // Some T is exactly 1 (the short rays).
+                    assert!(counts[1] > 0, "{what}: {counts:?}");
+                }
+            }
+        }
+    }
+    eprintln!("{frames} frames: {general} without rows of constant b·u, {unit} with");
+    assert!(
+        general >= 12 && unit >= 12,
+        "{frames} frames, {general} general, {unit}"
+    );
 }
 
 /// An eye far above thin fog (b = 0.1, ρ₀ from e^-25 to e^-60): the own kernel runs

@@ -39,6 +39,12 @@
 //! - nothing else overflows: n·t, K·n·t and y' are at most 1e37 (T_BIG's bounds);
 //! - n·t·E is clamped to f32::MAX where a channel has σ_c = 0, so that it gives τ = 0, not
 //!   0·∞ (without such a channel an infinite n·t·E gives T = 0, as the true τ does).
+//! - nothing is subnormal for short rays: t is raised to the frame's T_LO (depth values
+//!   to D_LO = T_LO·n_max before the division of distance depths), below which τ ≤
+//!   2⁻⁴⁰, so T = 1 and L_in = 0 in f32 as for t = 0 (see [`HeightPass::t_lo`]). Depths
+//!   of 1e-40 took 18× the time of typical ones on the Intel Xeon (a microcode assist for
+//!   each subnormal product: `DEPTHS=subnormal TILT=1 examples/passloop`), where no
+//!   row took [`RowFactor`] (whose own t_lo has the same effect).
 //!
 //! The ranges are checked in the log domain: K_c itself can leave even f64's range.
 //!
@@ -484,6 +490,19 @@ pub(crate) struct HeightPass {
     ndc: [f32; 5],
     /// The frame's T_BIG: rays are clamped to this length.
     t_big: f32,
+    /// The frame's T_LO: shorter rays are raised to it (negative depths too, which were
+    /// raised to 0). 2⁻⁴⁰/(n_max·max(K_max, |b2|)) (at most 2⁻⁴⁰), so that τ ≤ 2⁻⁴⁰ for
+    /// t ≤ T_LO: |Δ| ≤ |b|·n·t ≤ 2⁻⁴⁰ keeps E(Δ) within 2⁻⁴⁰ of 1, and K·n·t ≤ 2⁻⁴⁰.
+    /// Then T = 1 in f32 (2^(−2⁻⁴⁰·log2 e) rounds to 1) and L_in = c − c·1 = 0, the
+    /// results of t = 0, while n·t, y' and g' stay normal for every depth (a depth of
+    /// 1e-40 formed subnormal products). 0 (no clamp) where that bound is below 2⁻¹⁰⁰,
+    /// for K_max or |b| near the frame limits (1e30), where short rays may form
+    /// subnormals as before.
+    t_lo: f32,
+    /// The depth value of a distance depth (t = depth/n) is raised to T_LO·n_max before
+    /// the division: t·n = depth ≤ T_LO·n_max gives τ ≤ 2⁻⁴⁰ as above, and the product
+    /// depth·(1/n) is not formed subnormal.
+    d_lo: f32,
     /// u = `d[axis]` is the same for every pixel of a row (an axis up with `d_u[axis]` = 0,
     /// an upright camera), and 2⁻³⁰ ≤ n_min ≤ n_max ≤ 2³⁰: rows may take [`RowFactor`].
     row_uniform: bool,
@@ -635,8 +654,16 @@ impl HeightPass {
             return None;
         }
         let t_big = t_big as f32;
-        // Rows take `RowFactor` where u is constant along them (see there for the bounds).
+        // T_LO (see the field), and D_LO for distance depths.
         let k_max = ln_k_max.exp() * core::f64::consts::LOG2_E;
+        let b2_abs = b.abs() * core::f64::consts::LOG2_E;
+        let t_lo = (2f64.powi(-40) / (n_max * k_max.max(b2_abs))).min(2f64.powi(-40));
+        let (t_lo, d_lo) = if t_lo >= 2f64.powi(-100) && t_lo * n_max >= 2f64.powi(-100) {
+            (t_lo as f32, (t_lo * n_max) as f32)
+        } else {
+            (0.0, 0.0)
+        };
+        // Rows take `RowFactor` where u is constant along them (see there for the bounds).
         let row_uniform =
             axis < 3 && plan.d_u[axis] == 0.0 && n_min >= 2f64.powi(-30) && n_max <= 2f64.powi(30);
         let uni_lo = if ln_k.is_empty() {
@@ -711,6 +738,8 @@ impl HeightPass {
             x8: scene.pass_lanes_8,
             zmm: !scene.no_avx512_dispatch && crate::math::avx512_detected(),
             t_big,
+            t_lo,
+            d_lo,
             row_uniform: row_uniform && uni_lo <= f64::from(UNI_HI),
             uni_lo: uni_lo as f32,
         })
@@ -1188,7 +1217,9 @@ fn geometry<W: PassLane>(hp: &HeightPass, rf: &RowFactor, d: [W; 3], depth: W) -
     };
     let t = match hp.depth {
         LINEAR => depth,
-        DISTANCE => depth * inv_n,
+        // Raised first, so that the product is not formed subnormal (`HeightPass::d_lo`;
+        // `Lane::max`: NaN stays NaN).
+        DISTANCE => Lane::max(W::splat(hp.d_lo), depth) * inv_n,
         _ => {
             let [near, k, q, sky_s, sky_at] = hp.ndc;
             let z = W::splat(near) / depth.mul_add(W::splat(k), W::splat(q));
@@ -1196,14 +1227,14 @@ fn geometry<W: PassLane>(hp: &HeightPass, rf: &RowFactor, d: [W; 3], depth: W) -
             <W as Lane>::select(sky, W::splat(f32::INFINITY), z)
         }
     };
-    // Negative depths to 0 (`Lane::max` is maxps: NaN, the second operand, stays NaN);
-    // rays clamped to the frame's T_BIG (`Lane::min`: NaN stays NaN). Not wide's `min`/`max`, which
-    // return the other operand for NaN.
+    // Negative and short depths to T_LO (`Lane::max` is maxps: NaN, the second operand,
+    // stays NaN); rays clamped to the frame's T_BIG (`Lane::min`: NaN stays NaN). Not
+    // wide's `min`/`max`, which return the other operand for NaN.
     if rf.on {
         let t = Lane::min(W::splat(rf.t_hi), Lane::max(W::splat(rf.t_lo), t));
         return (W::splat(rf.b2u) * t, n * W::splat(rf.c), inv_n);
     }
-    let t = Lane::min(W::splat(hp.t_big), Lane::max(W::splat(0.0), t));
+    let t = Lane::min(W::splat(hp.t_big), Lane::max(W::splat(hp.t_lo), t));
     let y = (W::splat(hp.b2) * u) * t;
     let y = W::away_from_zero(y);
     (y, n * t, inv_n)
