@@ -1,4 +1,5 @@
-//! Times the batch kernel (8 lanes, RGB transmittance, unit directions, one thread) on
+//! Times the batch kernel (the build's lanes: 8, or 16 where AVX-512 is chosen at run time;
+//! RGB transmittance, unit directions, one thread) on
 //! families of extreme data, each the peer's typical rays with one thing changed, against
 //! the typical rays themselves in the same run: where a family is slower, the kernel has a
 //! slow path for it (a microcode assist on a subnormal intermediate, or a packet that
