@@ -143,6 +143,28 @@ impl Zmm {
         Zmm(unsafe { _mm512_rcp14_ps(self.0) })
     }
 
+    /// `Lane::frexp_clamped` with `vgetmantps`'s sign control `SIGN` (the source's sign,
+    /// or NaN for a negative source): `vgetmantps` gives ±1 for ±0, zeroed there by its
+    /// mask (lanes ≠ 0, NaN included), with no mask inversion; `vgetexpps`'s ±inf (and
+    /// NaN) clamped to `lo` below and `hi` above.
+    #[inline(always)]
+    fn frexp_clamped_sign<const SIGN: _MM_MANTISSA_SIGN_ENUM>(
+        self,
+        lo: f32,
+        hi: f32,
+    ) -> (Zmm, Zmm) {
+        let (e, m) = unsafe {
+            let nonzero = _mm512_cmp_ps_mask::<_CMP_NEQ_UQ>(self.0, _mm512_setzero_ps());
+            (
+                Zmm(_mm512_getexp_ps(self.0)),
+                Zmm(_mm512_maskz_getmant_ps::<_MM_MANT_NORM_1_2, SIGN>(
+                    nonzero, self.0,
+                )),
+            )
+        };
+        (m, e.max(Zmm::splat(lo)).min(Zmm::splat(hi)))
+    }
+
     /// |self| raised to at least `b` (positive), with the sign of `self` (`vrangeps`:
     /// the immediate's bits 1:0 = 11, the larger magnitude; bits 3:2 = 00, the sign of
     /// the first source, `self`; 01 would take the sign of the value chosen): one
@@ -311,35 +333,13 @@ impl Lane for Zmm {
     /// for a NaN one).
     #[inline(always)]
     fn frexp_clamped(self, lo: f32, hi: f32) -> (Self, Self) {
-        // `vgetmantps` gives ±1 for ±0: zeroed there by its mask (lanes ≠ 0, NaN
-        // included), with no mask inversion.
-        let (e, m) = unsafe {
-            let nonzero = _mm512_cmp_ps_mask::<_CMP_NEQ_UQ>(self.0, _mm512_setzero_ps());
-            (
-                Zmm(_mm512_getexp_ps(self.0)),
-                Zmm(_mm512_maskz_getmant_ps::<
-                    _MM_MANT_NORM_1_2,
-                    _MM_MANT_SIGN_SRC,
-                >(nonzero, self.0)),
-            )
-        };
-        (m, e.max(Zmm::splat(lo)).min(Zmm::splat(hi)))
+        self.frexp_clamped_sign::<_MM_MANT_SIGN_SRC>(lo, hi)
     }
     #[inline(always)]
     fn frexp_clamped_nonneg(self, lo: f32, hi: f32) -> (Self, Self) {
-        // As `frexp_clamped`, with the sign control that gives NaN for a negative
-        // source (−0 is zeroed by the mask first; −inf and negative subnormals give NaN).
-        let (e, m) = unsafe {
-            let nonzero = _mm512_cmp_ps_mask::<_CMP_NEQ_UQ>(self.0, _mm512_setzero_ps());
-            (
-                Zmm(_mm512_getexp_ps(self.0)),
-                Zmm(_mm512_maskz_getmant_ps::<
-                    _MM_MANT_NORM_1_2,
-                    _MM_MANT_SIGN_NAN,
-                >(nonzero, self.0)),
-            )
-        };
-        (m, e.max(Zmm::splat(lo)).min(Zmm::splat(hi)))
+        // The sign control that gives NaN for a negative source (−0 is zeroed by the mask
+        // first; −inf and negative subnormals give NaN).
+        self.frexp_clamped_sign::<_MM_MANT_SIGN_NAN>(lo, hi)
     }
     #[inline(always)]
     fn frexp(self) -> (Self, Self) {
