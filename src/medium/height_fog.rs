@@ -443,8 +443,9 @@ const M_SHIFT_EXP: f32 = 32.0;
 /// - **Zero lanes**, t = ±0 with b·u finite: the plain arguments as they are. The
 ///   general path's G is (n_m·(±0) + guard)·φ·e^(−u_min) = +0, with φ(2^-60) = 1 and a
 ///   finite e^(−u_min) (y finite), and so is this one (m = |n_m·t| = +0, Δ = ±0, so φ's
-///   argument is 2^-60 and −u_min = −a0s·2^64); τ = +0 at any exponent. (A depth buffer's pixel at the eye, a batch's
-///   padding: these took the general path, at 1.6× the time.)
+///   argument is 2^-60 and −u_min = −a0s·2^64); τ = +0 at any exponent. (A depth
+///   buffer's pixel at the eye, a batch's padding: these took the general path, at 1.6×
+///   the time.)
 /// - **Near lanes**, |d|·t in [2^-52, 2^-20) or (2^31, 2^43], otherwise within the plain
 ///   bounds (|Δ| < 2^8): m = n_m·t times 2^±32
 ///   into [2^-20, 2^31], and the exponent n_e ∓ 32. The plain argument holds: with

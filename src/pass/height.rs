@@ -42,7 +42,7 @@
 //! - nothing is subnormal for short rays: t is raised to the frame's T_LO (depth values
 //!   to D_LO = T_LO·n_max before the division of distance depths), below which τ ≤
 //!   2⁻⁴⁰, so T = 1 and L_in = 0 in f32 as for t = 0 (see [`HeightPass::t_lo`]). Depths
-//!   of 1e-40 took 18× the time of typical ones on the Intel Xeon (a microcode assist for
+//!   of 1e-40 took 17–18× the time of typical ones on the Intel Xeon (a microcode assist for
 //!   each subnormal product: `DEPTHS=subnormal TILT=1 examples/passloop`), where no
 //!   row took [`RowFactor`] (whose own t_lo has the same effect).
 //!
