@@ -21,18 +21,26 @@
 //! (1e-40 to 1e-38), `tiny` (1e-30), `huge` (1e30), `max` (f32::MAX), `sky` (every pixel
 //! +∞). `TILT=1` rolls the camera a little (its up +Y + 0.05·X), so that no row has a
 //! constant dot(d, up) and every row takes the general form (no `RowFactor`).
+//! `FALLOFF=b` sets the layer's falloff (default 0.1) and `SCALE=s` multiplies its
+//! scattering coefficients (default 1), for scanning extreme media.
 
-use analytic_fog::pass::{Camera, ColourBuffer, Depth};
+use analytic_fog::pass::{Camera, ColourBuffer, Depth, DepthConvention};
 use analytic_fog::{Component, HeightFogLayer, Lighting, Phase, Scene, SceneDesc, Sun};
 use glam::Vec3;
 fn main() {
+    let env_f32 = |k: &str, d: f32| {
+        std::env::var(k)
+            .ok()
+            .and_then(|f| f.parse().ok())
+            .unwrap_or(d)
+    };
     let scene = Scene::new(SceneDesc {
         height_fog: vec![HeightFogLayer {
             base_height: 0.0,
-            falloff: 0.1,
+            falloff: env_f32("FALLOFF", 0.1),
             emission: Vec3::ZERO,
             components: vec![Component {
-                scattering: Vec3::new(0.02, 0.03, 0.05),
+                scattering: Vec3::new(0.02, 0.03, 0.05) * env_f32("SCALE", 1.0),
                 absorption: Vec3::ZERO,
                 phase: Phase::HenyeyGreenstein(0.6),
             }],
@@ -69,10 +77,7 @@ fn main() {
     let (w, h) = (env_usize("W", 1920).max(1), env_usize("H", 1080).max(1));
     // `EYE_Y=y`: the eye's height (default 2; e.g. 500, far above the fog, where τ is
     // below 1e-19 everywhere in the frame).
-    let eye_y: f32 = std::env::var("EYE_Y")
-        .ok()
-        .and_then(|f| f.parse().ok())
-        .unwrap_or(2.0);
+    let eye_y = env_f32("EYE_Y", 2.0);
     let tilt = std::env::var("TILT").is_ok_and(|v| v == "1");
     let cam = Camera::perspective(
         Vec3::new(0.0, eye_y, 0.0),
@@ -156,11 +161,18 @@ fn main() {
             scene.fog_pass_single(&cam, w, h, dv, cb).unwrap();
         }
     });
+    let own = scene
+        .fog_pass_own_kernel(&cam, w, h, DepthConvention::LinearView)
+        .unwrap();
+    let uniform = scene
+        .fog_pass_uniform_rows(&cam, w, h, DepthConvention::LinearView)
+        .unwrap();
     println!(
-        "{}  best frame of {frames}: {:.3} ms, {:.3} ns per pixel",
+        "{}  best frame of {frames}: {:.3} ms, {:.3} ns per pixel ({}, {uniform} uniform rows)",
         c[12345 % c.len()],
         best * 1e3,
-        best * 1e9 / (w * h) as f64
+        best * 1e9 / (w * h) as f64,
+        if own { "own kernel" } else { "batch kernel" }
     );
 }
 

@@ -9,7 +9,9 @@
 //! at run time.
 
 use crate::light::PhaseEval;
-use crate::math::{exp_neg, exp_neg_fast, exp_neg_mul, ldexp, pow2_pair, ExpNegMul, Lane};
+use crate::math::{
+    exp_neg, exp_neg_fast, exp_neg_mul, ldexp, ldexp_no_subnormal, pow2_pair, ExpNegMul, Lane,
+};
 use crate::medium::distance::DistancePlan;
 use crate::medium::height_fog::{
     depth_args_of, depth_args_tame, depth_args_tame_wide, depth_of, depth_phi, depth_with_of,
@@ -199,6 +201,11 @@ pub(crate) struct Single {
     /// `n_lit` entries; `n_lit` is 0 without a sun).
     pub(crate) lit: [(PhaseEval, [f32; 3]); MAX_PHASES],
     pub(crate) n_lit: usize,
+    /// Depth exponents below this may give some channel a τ below 2^-126 (see
+    /// [`Single::tiny_tau`]); −∞ where every σ is 0.
+    pub(crate) tiny_tau_e: f32,
+    /// Depth exponents below this give every channel a τ below 2^-150 (0, no subnormal).
+    pub(crate) tiny_zero_e: f32,
 }
 
 impl Single {
@@ -245,7 +252,44 @@ impl Single {
             sun,
             lit,
             n_lit,
+            // τ_c = (gm·m_c)·2^(ge + e_c) with |gm| ≥ 2^-38 (or 0) and m_c in [1, 2): at
+            // least 2^-126 where ge ≥ −88 − e_c.
+            tiny_tau_e: layer
+                .sigma
+                .iter()
+                .filter(|s| s.m != 0.0)
+                .map(|s| -88.0 - s.e)
+                .fold(f32::NEG_INFINITY, f32::max),
+            // |gm·m_c| < 2^6.
+            tiny_zero_e: layer
+                .sigma
+                .iter()
+                .filter(|s| s.m != 0.0)
+                .map(|s| -156.0 - s.e)
+                .fold(f32::INFINITY, f32::min),
         })
+    }
+
+    /// Whether some lane of the depths (gm, ge) of a packet or block may have a channel's
+    /// τ below 2^-126: then stage 3 takes [`single_tau_tiny`], whose subnormal results
+    /// cost no microcode assist. One `minps` per packet where no lane's exponent is low
+    /// (typical data); where one is, a second look counts only lanes whose τ may be
+    /// subnormal, not 0 (G = 0 for t = 0; G far below the range, a camera far above the
+    /// fog), which [`single_tau`] forms without an assist. (A NaN exponent counts as not
+    /// tiny; the exponents are finite.)
+    #[inline(always)]
+    pub(crate) fn tiny_tau<L: Lane>(&self, depth: &[(L, L)]) -> bool {
+        let hi = L::splat(self.tiny_tau_e);
+        let lo = depth
+            .iter()
+            .fold(L::splat(f32::INFINITY), |lo, &(_, ge)| Lane::min(ge, lo));
+        if !L::any(lo.lt(hi)) {
+            return false;
+        }
+        let (zero_e, zero) = (L::splat(self.tiny_zero_e), L::splat(0.0));
+        depth
+            .iter()
+            .any(|&(gm, ge)| L::any(ge.lt(hi) & ge.ge(zero_e) & gm.ne(zero)))
     }
 }
 
@@ -272,6 +316,7 @@ pub(crate) fn eval_packet<
     };
     let depth = single_depth::<L, FAST>(single, args);
     let tau = match single.tau_kind {
+        _ if single.tiny_tau(&[depth]) => single_tau_tiny(single, depth),
         0 => single_tau::<L, 0>(single, depth),
         1 => single_tau::<L, 1>(single, depth),
         _ => single_tau::<L, 2>(single, depth),
@@ -400,6 +445,25 @@ pub(crate) fn single_tau<L: Lane, const KIND: u8>(single: &Single, (gm, ge): (L,
         rgb!(ch => {
             let s = layer.sigma[ch];
             ldexp(gm * L::splat(s.m), ge + L::splat(s.e))
+        })
+    }
+}
+
+/// Stage 3 where some lane's τ may be below 2^-126 ([`Single::tiny_tau`]): the same bits
+/// as [`single_tau`] (each channel's τ is (gm·m_c)·2^(ge + e_c) rounded once more into the
+/// subnormal range in both), formed by [`ldexp_no_subnormal`] (subnormal results from
+/// integer bits: no microcode assist, 3 to 14× the time of typical data where τ is
+/// subnormal on the Intel Xeon of the forty-ninth session, README).
+#[inline(always)]
+pub(crate) fn single_tau_tiny<L: Lane>(single: &Single, (gm, ge): (L, L)) -> [L; 3] {
+    let sigma = &single.layer.sigma;
+    if single.tau_kind == 0 {
+        let s = sigma[0];
+        [ldexp_no_subnormal(gm * L::splat(s.m), ge + L::splat(s.e)); 3]
+    } else {
+        rgb!(ch => {
+            let s = sigma[ch];
+            ldexp_no_subnormal(gm * L::splat(s.m), ge + L::splat(s.e))
         })
     }
 }
@@ -1170,7 +1234,7 @@ fn run_single<
             shared_depth(single, &depth[..m], &mut gs);
         }
         macro_rules! tau_loop {
-            ($kind:literal) => {{
+            ($f:expr) => {{
                 let pairs = taus[..m].iter_mut().zip(depth[..m].iter());
                 match o_tau.as_mut() {
                     Some([d0, d1, d2]) => {
@@ -1180,7 +1244,7 @@ fn run_single<
                             .zip(d1[i..i + w].chunks_exact_mut(L::LANES))
                             .zip(d2[i..i + w].chunks_exact_mut(L::LANES));
                         for ((tau, &g), ((a, b), c)) in pairs.zip(chunks) {
-                            let x = single_tau::<L, $kind>(single, g);
+                            let x = $f(single, g);
                             x[0].store(a);
                             x[1].store(b);
                             x[2].store(c);
@@ -1192,17 +1256,19 @@ fn run_single<
                     }
                     None => {
                         for (tau, &g) in pairs {
-                            *tau = single_tau::<L, $kind>(single, g);
+                            *tau = $f(single, g);
                         }
                     }
                 }
             }};
         }
         if !shared_block || o_tau.is_some() {
+            // A block where some lane's τ may be subnormal: `single_tau_tiny` (same bits).
             match single.tau_kind {
-                0 => tau_loop!(0),
-                1 => tau_loop!(1),
-                _ => tau_loop!(2),
+                _ if single.tiny_tau(&depth[..m]) => tau_loop!(single_tau_tiny::<L>),
+                0 => tau_loop!(single_tau::<L, 0>),
+                1 => tau_loop!(single_tau::<L, 1>),
+                _ => tau_loop!(single_tau::<L, 2>),
             }
         }
         // The T loop of a shared block: `$f` gives the three channels' T from `$g`, with
@@ -1535,6 +1601,7 @@ fn split_par(scene: &Scene, rays: &Rays<'_>, out: Outputs<'_>, width: Width, chu
 /// than closures, so that both are inlined into the packet loop.)
 pub(crate) trait PacketIo<L> {
     fn make(&mut self, i: usize) -> PacketIn<L>;
+    /// The packet's T and L_in (its τ is not formed by every kernel: see `eval_block`).
     fn take(&mut self, i: usize, out: &PacketOut<L>);
 }
 
@@ -1665,7 +1732,7 @@ fn depth_stages_tame<L: Lane, const FAST: bool, const UNIT: bool>(
 /// [`eval_packet`]`::<L, AXIS, UNIT, true, true, FAST>` for each packet of `ins` (at
 /// most [`BLOCK`]), stage by stage over the block as in [`run_single`]: the same stage
 /// functions in the same order, so the same bits. T and L_in are always formed (the
-/// pass wants both); τ too.
+/// pass wants both); τ only where T is formed from it (not where [`Single::t_from_depth`]).
 #[inline(always)]
 fn eval_block<L: Lane, const AXIS: usize, const UNIT: bool, const FAST: bool>(
     single: &Single,
@@ -1696,16 +1763,20 @@ fn eval_block<L: Lane, const AXIS: usize, const UNIT: bool, const FAST: bool>(
     }
     depth_stages::<L, FAST>(kind, &args[..m], &mut phis, &mut depth);
     macro_rules! tau_loop {
-        ($kind:literal) => {
+        ($f:expr) => {
             for (r, &g) in outs.iter_mut().zip(&depth) {
-                r.tau = single_tau::<L, $kind>(single, g);
+                r.tau = $f(single, g);
             }
         };
     }
+    // τ only where T is formed from it: the pass reads T and L_in, never τ (`PacketIo`),
+    // so where T comes from the depth (`depth_trans`) `outs`' τ stays as it was.
     match single.tau_kind {
-        0 => tau_loop!(0),
-        1 => tau_loop!(1),
-        _ => tau_loop!(2),
+        _ if single.t_from_depth::<FAST>() => {}
+        _ if single.tiny_tau(&depth[..m]) => tau_loop!(single_tau_tiny::<L>),
+        0 => tau_loop!(single_tau::<L, 0>),
+        1 => tau_loop!(single_tau::<L, 1>),
+        _ => tau_loop!(single_tau::<L, 2>),
     }
     if single.t_from_depth::<FAST>() {
         let es = L::splat(single.depth_scale.0);

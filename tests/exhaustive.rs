@@ -7,7 +7,8 @@
 //! Every f32 input of each function's domain (all 2^32 bit patterns for `exp`, `expm1`,
 //! `exp_split`, `exp2_split`, `frexp` and `exp2m1`; every f32 >= 0 for `exp_neg`, every f32
 //! <= 0 for `exp2_nonpos` and `exp2_nonpos_table`, every f32 >= 2^-60 for `exprel_neg` and
-//! `exprel2_neg`; every mantissa of `ldexp`'s precondition domain with a sampled exponent)
+//! `exprel2_neg`; every mantissa of `ldexp`'s precondition domain with a sampled exponent,
+//! `ldexp_no_subnormal` against it)
 //! is evaluated 8 at a time through the `wide::f32x8` instantiation, and one at a time
 //! through the scalar `f32` instantiation, which must give the same bits. Errors are
 //! measured in ULP of the correctly rounded f32 result (2^-149 for subnormal results)
@@ -1155,12 +1156,24 @@ fn ldexp_sweep() {
             let kind = j.saturating_sub(2);
             let es = ms.map(|m| ldexp_exponent(m, kind));
             let y8 = math::ldexp(f32x8::new(ms), f32x8::new(es)).to_array();
+            let z8 = math::ldexp_no_subnormal(f32x8::new(ms), f32x8::new(es)).to_array();
             for l in 0..live {
                 let (m, e) = (ms[l], es[l]);
                 let y = math::ldexp(m, e);
                 st.fails.check(y.to_bits() == y8[l].to_bits(), || {
                     format!("ldexp({m:e}, {e}): x8 {:e}, scalar {y:e}", y8[l])
                 });
+                // `ldexp_no_subnormal`: the same bits, in both widths.
+                let z = math::ldexp_no_subnormal(m, e);
+                st.fails.check(
+                    z.to_bits() == y.to_bits() && z8[l].to_bits() == y.to_bits(),
+                    || {
+                        format!(
+                            "ldexp_no_subnormal({m:e}, {e}): {z:e}, x8 {:e}, ldexp {y:e}",
+                            z8[l]
+                        )
+                    },
+                );
                 let (c, exact) = ldexp_want(m, e);
                 st.errors.record(m, y, exact, ulp_err(y, exact));
                 // One rounding: the correctly rounded result, sign of zero and

@@ -1211,3 +1211,73 @@ fn stretches_of_extreme_and_typical_rays_give_the_scalar_bits() {
         }
     }
 }
+
+/// Optical depths below 2^-126 among normal ones: the batch kernel forms a block's τ by
+/// `ldexp_no_subnormal` where some lane's τ may be subnormal (`kernel::single_tau_tiny`;
+/// no microcode assist), by `ldexp` elsewhere, and both must give the scalar path's bits
+/// (every output, both direction forms, every lane position: stretches of 1 to 40 tiny
+/// rays between typical ones) and the reference's values. Grey, shared-scale and
+/// wide-ratio extinctions (one τ, one pair of scale factors, one ldexp per channel).
+#[test]
+fn subnormal_optical_depths_give_the_scalar_bits() {
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut uni = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    for sigma in [
+        Vec3::splat(3e-37),
+        Vec3::new(2e-37, 3e-37, 5e-37),
+        Vec3::new(1e-40, 1e-30, 1e-20),
+    ] {
+        let mut desc = reference::peer::scene_desc();
+        desc.height_fog[0].components[0].scattering = sigma;
+        let sc = Scene::new(desc.clone()).unwrap();
+        let mut rays: Vec<Ray> = Vec::new();
+        for stretch in [1usize, 7, 16, 3, 40, 2, 17, 9] {
+            for i in 0..stretch + 13 {
+                let dy = uni() * 1.8 - 0.9;
+                let d = Vec3::new((1.0 - dy * dy).sqrt(), dy, 0.0);
+                let o = Vec3::new(0.0, 2.0 + 20.0 * uni(), 0.0);
+                // Segments from 1e-12 (τ far below 2^-149) to 1e4 (τ up to 1e-32).
+                let t = if i < stretch {
+                    10f32.powf(-12.0 + 12.0 * uni())
+                } else {
+                    1.0 + 1e4 * uni()
+                };
+                rays.push((o, d, t));
+            }
+        }
+        for unit in [true, false] {
+            let want = [true; 3];
+            let scalar = eval(&sc, &rays, unit, Path::Scalar, want);
+            check_batch(&desc, &rays, &scalar)
+                .unwrap_or_else(|e| panic!("σ {sigma}, unit {unit}: {e}"));
+            assert!(
+                scalar[0][0]
+                    .iter()
+                    .any(|&t| t > 0.0 && t < f32::MIN_POSITIVE),
+                "σ {sigma}: no subnormal τ"
+            );
+            for path in [Path::X8, Path::X8Narrow, Path::Par] {
+                let out = eval(&sc, &rays, unit, path, want);
+                for (k, (o, s)) in out
+                    .iter()
+                    .flatten()
+                    .zip(scalar.iter().flatten())
+                    .enumerate()
+                {
+                    for (i, (a, b)) in o.iter().zip(s).enumerate() {
+                        assert!(
+                            a.to_bits() == b.to_bits(),
+                            "σ {sigma}, {path:?}, unit {unit}, output {k}, ray {i}: {a:e} \
+                             against scalar {b:e}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}

@@ -63,6 +63,8 @@ pub trait Lane:
     fn round(self) -> Self;
     /// The magnitude of `self` with the sign of `sign`.
     fn copysign(self, sign: Self) -> Self;
+    /// The bits of `self` ANDed with `bits`.
+    fn and_bits(self, bits: u32) -> Self;
 
     /// `self < b` (false where either is NaN).
     fn lt(self, b: Self) -> Self::Mask;
@@ -325,6 +327,10 @@ impl Lane for f32 {
         f32::copysign(self, sign)
     }
     #[inline(always)]
+    fn and_bits(self, bits: u32) -> Self {
+        f32::from_bits(self.to_bits() & bits)
+    }
+    #[inline(always)]
     fn lt(self, b: Self) -> bool {
         self < b
     }
@@ -453,6 +459,10 @@ macro_rules! impl_lane_wide {
                 fn copysign(self, sign: Self) -> Self {
                     let s = <$F>::splat(-0.0);
                     (self & !s) | (sign & s)
+                }
+                #[inline(always)]
+                fn and_bits(self, bits: u32) -> Self {
+                    self & <$F>::splat(f32::from_bits(bits))
                 }
                 #[inline(always)]
                 fn lt(self, b: Self) -> Self {

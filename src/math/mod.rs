@@ -58,6 +58,6 @@ pub use lane::Lane;
 pub(crate) use lane::{rcp14_x16, rsqrt14_x16};
 #[cfg(all(target_feature = "avx512f", target_feature = "avx512vl"))]
 pub(crate) use lane::{rcp14_x8, rsqrt14_x8};
-pub use ldexp::{ldexp, pow2_pair};
+pub use ldexp::{ldexp, ldexp_no_subnormal, pow2_pair};
 pub use log::{log, log_scaled};
 pub use log1p::log1p;

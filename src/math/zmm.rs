@@ -267,6 +267,10 @@ impl Lane for Zmm {
         Zmm(unsafe { _mm512_roundscale_ps::<0x08>(self.0) })
     }
     #[inline(always)]
+    fn and_bits(self, bits: u32) -> Self {
+        Zmm::and_bits(self, bits)
+    }
+    #[inline(always)]
     fn copysign(self, sign: Self) -> Self {
         Zmm::from_bits(unsafe {
             _mm512_or_si512(

@@ -508,6 +508,14 @@ pub(crate) struct HeightPass {
     row_uniform: bool,
     /// The least |b2·u| of a row that takes [`RowFactor`]: 2⁻³⁰ and max_c k_c·n_max·2⁻²⁰.
     uni_lo: f32,
+    /// g' is raised to this where it is not 0: 2⁻³⁰/max_c max(|k_c|, |k2_c|), so that
+    /// g' below it gives τ ≤ 2⁻³⁰ (T = 1 and L_in = 0 in f32, as for the g' raised), and
+    /// every channel's k_c·g' stays normal (channels within 2⁷⁰ of the largest). Only
+    /// in frames where some pixel's k_c·g' could be below 2⁻¹⁰⁰ otherwise (K far below
+    /// 1, an eye far above the fog, with short rays: subnormal products in stage 3 took
+    /// 17× the time of typical frames on the Intel Xeon, `EYE_Y=500 DEPTHS=tiny
+    /// examples/passloop`); 0 (no floor) elsewhere.
+    g_lo: f32,
 }
 
 /// A row's constants where u = dot(d, up), hence b2·u, is the same for all its pixels
@@ -666,6 +674,22 @@ impl HeightPass {
         // Rows take `RowFactor` where u is constant along them (see there for the bounds).
         let row_uniform =
             axis < 3 && plan.d_u[axis] == 0.0 && n_min >= 2f64.powi(-30) && n_max <= 2f64.powi(30);
+        // g' ≥ n·t·ln 2·(1 − 2⁻⁴⁰) at the least t of any row (g' grows with t): T_LO in
+        // general rows, 2⁻⁶⁰/|b2·u| ≥ 2⁻⁶⁰/(|b2|·n_max) in rows that take `RowFactor`.
+        let t_min = if row_uniform && b2_abs > 0.0 {
+            f64::from(t_lo).min(2f64.powi(-60) / (b2_abs * n_max))
+        } else {
+            f64::from(t_lo)
+        };
+        let g_lo = if ln_k.is_empty()
+            || ln_k_min + core::f64::consts::LOG2_E.ln() + (0.69 * n_min * t_min).ln()
+                >= -100.0 * core::f64::consts::LN_2
+        {
+            0.0
+        } else {
+            // max_c max(|k_c|, |k2_c|) = K_max·log2(e)·max(1, log2(e)).
+            (2f64.powi(-30) / (k_max * core::f64::consts::LOG2_E)) as f32
+        };
         let uni_lo = if ln_k.is_empty() {
             2f64.powi(-30)
         } else {
@@ -742,6 +766,7 @@ impl HeightPass {
             d_lo,
             row_uniform: row_uniform && uni_lo <= f64::from(UNI_HI),
             uni_lo: uni_lo as f32,
+            g_lo,
         })
     }
 }
@@ -1097,6 +1122,7 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     // 2. g' = n·t·exp2m1(y')/y' (= n·t·E(Δ)·ln 2), or exp2m1(y')·(n·c) in a row that
     // takes `RowFactor`, clamped to f32::MAX where some K_c = 0 (`HeightPass::clamp_g`).
     let clamp_g = hp.clamp_g;
+    let (floor_g, g_lo) = (hp.g_lo > 0.0, W::splat(hp.g_lo));
     let uni = rf.on;
     for ((g, g3), &y) in gs.iter_mut().zip(gs3.iter_mut()).zip(ys.iter()) {
         let gv = if uni {
@@ -1104,6 +1130,8 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
         } else {
             W::quotient(exp2m1(y), y) * *g
         };
+        // (`Lane::max`: NaN, the second operand, stays NaN.)
+        let gv = if floor_g { Lane::max(g_lo, gv) } else { gv };
         let gv = if clamp_g {
             Lane::min(W::splat(f32::MAX), gv)
         } else {
