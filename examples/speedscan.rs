@@ -10,7 +10,8 @@
 //! every two families (the machine drifts). With no argument, every family.
 //! `SCALE=s` multiplies the layer's scattering coefficients by s for the families (the
 //! typical rays keep the peer's scene), e.g. 1e-30 for optical depths that are subnormal
-//! in f32; `OUT=tau` times τ alone, `OUT=all` τ, T and L_in (default: T).
+//! in f32; `OUT=tau` times τ alone, `OUT=all` τ, T and L_in (default: T); `NO512=1` runs
+//! the build's own lanes where AVX-512 would be chosen at run time.
 use analytic_fog::reference::peer::{scene_desc, Family, PeerRays, EXTREME_FAMILIES};
 use analytic_fog::{Outputs, Rays, Scene};
 
@@ -74,6 +75,15 @@ fn main() {
     let mut desc = scene_desc();
     desc.height_fog[0].components[0].scattering *= scale;
     let scaled = Scene::new(desc).unwrap();
+    // `NO512=1`: the build's own lanes (8), as on a CPU without AVX-512.
+    let (scene, scaled) = if std::env::var("NO512").is_ok_and(|v| v == "1") {
+        (
+            scene.without_avx512_dispatch(),
+            scaled.without_avx512_dispatch(),
+        )
+    } else {
+        (scene, scaled)
+    };
     let typical = PeerRays::new(n, false);
     println!("family, ns/ray, typical ns/ray (before, after), ratio: what");
     // `typical`: the typical rays themselves (in the scaled scene, with `SCALE`).

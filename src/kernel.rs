@@ -204,9 +204,14 @@ pub(crate) struct Single {
     /// Depth exponents below this may give some channel a τ below 2^-126 (see
     /// [`Single::tiny_tau`]); −∞ where every σ is 0.
     pub(crate) tiny_tau_e: f32,
-    /// Depth exponents below this give every channel a τ below 2^-150 (0, no subnormal).
-    pub(crate) tiny_zero_e: f32,
+    /// Sums ge + x (x the exponent of gm) below this may give some channel a τ below
+    /// 2^-126 (see [`Single::tiny_tau`]).
+    pub(crate) tiny_exact_e: f32,
 }
+
+/// The least non-zero |gm| of the general depth stages (`height_fog::depth_of`: G = m·2^e
+/// with |m| in [2^-38, 2^5] or 0).
+const MANTISSA_MIN: f32 = 3.637_978_8e-12; // 2^-38
 
 impl Single {
     /// `None` unless [`is_single_layer`] and the layer has a base-2 form (b = 0, or
@@ -260,36 +265,46 @@ impl Single {
                 .filter(|s| s.m != 0.0)
                 .map(|s| -88.0 - s.e)
                 .fold(f32::NEG_INFINITY, f32::max),
-            // |gm·m_c| < 2^6.
-            tiny_zero_e: layer
+            // τ_c = (gm·m_c)·2^(ge + e_c) ≥ 2^(ge + x + e_c) (one below, for the
+            // rounding of gm·m_c).
+            tiny_exact_e: layer
                 .sigma
                 .iter()
                 .filter(|s| s.m != 0.0)
-                .map(|s| -156.0 - s.e)
-                .fold(f32::INFINITY, f32::min),
+                .map(|s| -125.0 - s.e)
+                .fold(f32::NEG_INFINITY, f32::max),
         })
     }
 
     /// Whether some lane of the depths (gm, ge) of a packet or block may have a channel's
     /// τ below 2^-126: then stage 3 takes [`single_tau_tiny`], whose subnormal results
-    /// cost no microcode assist. One `minps` per packet where no lane's exponent is low
-    /// (typical data); where one is, a second look counts only lanes whose τ may be
-    /// subnormal, not 0 (G = 0 for t = 0; G far below the range, a camera far above the
-    /// fog), which [`single_tau`] forms without an assist. (A NaN exponent counts as not
-    /// tiny; the exponents are finite.)
+    /// cost no microcode assist (nor do its results that round to 0: a `vscalefps` whose
+    /// result underflows to 0 cost one too, `SCALE=1e-20 OUT=all speedscan short_1e-30`).
+    /// Two `minps` per packet where no lane's depth is low (typical data): τ_c =
+    /// (gm·m_c)·2^(ge + e_c) with m_c in [1, 2) is at least 2^-126 where gm ≥ 2^-38 (the
+    /// general stages' least mantissa) and ge ≥ −88 − e_c; the tame stages keep G in gm
+    /// with ge = 0. Where some lane is low, a second look takes gm's own exponent x and
+    /// counts the lanes with G ≠ 0 and ge + x + e_c < −125 for some channel: G = 0 (t = 0)
+    /// gives τ = 0 without an assist. (NaN lanes count as not tiny.)
     #[inline(always)]
     pub(crate) fn tiny_tau<L: Lane>(&self, depth: &[(L, L)]) -> bool {
-        let hi = L::splat(self.tiny_tau_e);
-        let lo = depth
-            .iter()
-            .fold(L::splat(f32::INFINITY), |lo, &(_, ge)| Lane::min(ge, lo));
-        if !L::any(lo.lt(hi)) {
+        // (Loops, not closures: a closure is compiled without the `#[target_feature]` of
+        // the AVX-512 entry points, and its intrinsics stayed out of line.)
+        let (mut lo_m, mut lo_e) = (L::splat(f32::INFINITY), L::splat(f32::INFINITY));
+        for &(gm, ge) in depth {
+            lo_m = Lane::min(gm, lo_m);
+            lo_e = Lane::min(ge, lo_e);
+        }
+        if !L::any(lo_e.lt(L::splat(self.tiny_tau_e)) | lo_m.lt(L::splat(MANTISSA_MIN))) {
             return false;
         }
-        let (zero_e, zero) = (L::splat(self.tiny_zero_e), L::splat(0.0));
-        depth
-            .iter()
-            .any(|&(gm, ge)| L::any(ge.lt(hi) & ge.ge(zero_e) & gm.ne(zero)))
+        let (hi, zero) = (L::splat(self.tiny_exact_e), L::splat(0.0));
+        let mut tiny = false;
+        for &(gm, ge) in depth {
+            let (_, x) = gm.frexp();
+            tiny |= L::any((ge + x).lt(hi) & gm.ne(zero));
+        }
+        tiny
     }
 }
 

@@ -141,7 +141,7 @@ pub type Family = (&'static str, &'static str, fn(&mut f32, &mut f32, &mut f32))
 /// times them; `tests/height_fog.rs` checks the vector path against the scalar one and
 /// the reference on them). Directions (√(1 − d_y²), d_y, 0) as [`PeerRays::dx`] forms
 /// them.
-pub const EXTREME_FAMILIES: [Family; 17] = [
+pub const EXTREME_FAMILIES: [Family; 18] = [
     (
         "camera_1e-19",
         "camera heights × 1e-19 (t clipped at the ground)",
@@ -179,6 +179,9 @@ pub const EXTREME_FAMILIES: [Family; 17] = [
     ("level_0", "d_up = 0", |_, u, _| *u = 0.0),
     ("short_1e-10", "t × 1e-10", |_, _, t| *t *= 1e-10),
     ("short_1e-30", "t × 1e-30", |_, _, t| *t *= 1e-30),
+    ("short_1e-40", "t × 1e-40 (subnormal)", |_, _, t| {
+        *t *= 1e-40
+    }),
     ("long_1e6", "t × 1e6", |_, _, t| *t *= 1e6),
     ("long_1e30", "t × 1e30", |_, _, t| *t *= 1e30),
     ("sky", "t = +inf", |_, _, t| *t = f32::INFINITY),
