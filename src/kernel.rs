@@ -209,6 +209,16 @@ pub(crate) struct Single {
     pub(crate) tiny_exact_e: f32,
 }
 
+/// The least exponent of the layer's non-zero extinctions (+∞ where all are 0).
+fn least_sigma_exponent(layer: &crate::scene::LayerCore) -> f32 {
+    layer
+        .sigma
+        .iter()
+        .filter(|s| s.m != 0.0)
+        .map(|s| s.e)
+        .fold(f32::INFINITY, f32::min)
+}
+
 /// The least non-zero |gm| of the general depth stages (`height_fog::depth_of`: G = m·2^e
 /// with |m| in [2^-38, 2^5] or 0).
 const MANTISSA_MIN: f32 = 3.637_978_8e-12; // 2^-38
@@ -258,21 +268,10 @@ impl Single {
             lit,
             n_lit,
             // τ_c = (gm·m_c)·2^(ge + e_c) with |gm| ≥ 2^-38 (or 0) and m_c in [1, 2): at
-            // least 2^-126 where ge ≥ −88 − e_c.
-            tiny_tau_e: layer
-                .sigma
-                .iter()
-                .filter(|s| s.m != 0.0)
-                .map(|s| -88.0 - s.e)
-                .fold(f32::NEG_INFINITY, f32::max),
-            // τ_c = (gm·m_c)·2^(ge + e_c) ≥ 2^(ge + x + e_c) (one below, for the
-            // rounding of gm·m_c).
-            tiny_exact_e: layer
-                .sigma
-                .iter()
-                .filter(|s| s.m != 0.0)
-                .map(|s| -125.0 - s.e)
-                .fold(f32::NEG_INFINITY, f32::max),
+            // least 2^-126 where ge ≥ −88 − e_c, and at least 2^(ge + x + e_c) with x the
+            // exponent of gm (one below that, for the rounding of gm·m_c).
+            tiny_tau_e: -88.0 - least_sigma_exponent(&layer),
+            tiny_exact_e: -125.0 - least_sigma_exponent(&layer),
         })
     }
 

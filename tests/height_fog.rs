@@ -1147,6 +1147,27 @@ fn subnormal_falloffs_with_long_rays() {
     }
 }
 
+/// Every output of the x8 (with and without AVX-512 dispatch) and rayon paths has the bits
+/// of `scalar`, the scalar path's outputs for the same batch.
+fn assert_paths_give_scalar_bits(sc: &Scene, rays: &[Ray], unit: bool, scalar: &Out, ctx: &str) {
+    for path in [Path::X8, Path::X8Narrow, Path::Par] {
+        let out = eval(sc, rays, unit, path, [true; 3]);
+        for (k, (o, s)) in out
+            .iter()
+            .flatten()
+            .zip(scalar.iter().flatten())
+            .enumerate()
+        {
+            for (i, (a, b)) in o.iter().zip(s).enumerate() {
+                assert!(
+                    a.to_bits() == b.to_bits(),
+                    "{ctx}{path:?}, unit {unit}, output {k}, ray {i}: {a:e} against scalar {b:e}"
+                );
+            }
+        }
+    }
+}
+
 /// Long batches whose stretches switch between rays that no packet's tame test accepts
 /// (sky, segments of 1e10 and 1e-8, in every packet) and typical rays, in stretches of
 /// 1 to 1500 rays: the batch kernel skips the tame test for a few blocks after a block
@@ -1193,22 +1214,7 @@ fn stretches_of_extreme_and_typical_rays_give_the_scalar_bits() {
         let scalar = eval(&sc, &rays, unit, Path::Scalar, want);
         // The scalar results themselves against the f64 reference.
         check_batch(&desc, &rays, &scalar).unwrap_or_else(|e| panic!("unit {unit}: {e}"));
-        for path in [Path::X8, Path::X8Narrow, Path::Par] {
-            let out = eval(&sc, &rays, unit, path, want);
-            for (k, (o, s)) in out
-                .iter()
-                .flatten()
-                .zip(scalar.iter().flatten())
-                .enumerate()
-            {
-                for (i, (a, b)) in o.iter().zip(s).enumerate() {
-                    assert!(
-                        a.to_bits() == b.to_bits(),
-                        "{path:?}, unit {unit}, output {k}, ray {i}: {a:e} against scalar {b:e}"
-                    );
-                }
-            }
-        }
+        assert_paths_give_scalar_bits(&sc, &rays, unit, &scalar, "");
     }
 }
 
@@ -1261,23 +1267,7 @@ fn subnormal_optical_depths_give_the_scalar_bits() {
                     .any(|&t| t > 0.0 && t < f32::MIN_POSITIVE),
                 "σ {sigma}: no subnormal τ"
             );
-            for path in [Path::X8, Path::X8Narrow, Path::Par] {
-                let out = eval(&sc, &rays, unit, path, want);
-                for (k, (o, s)) in out
-                    .iter()
-                    .flatten()
-                    .zip(scalar.iter().flatten())
-                    .enumerate()
-                {
-                    for (i, (a, b)) in o.iter().zip(s).enumerate() {
-                        assert!(
-                            a.to_bits() == b.to_bits(),
-                            "σ {sigma}, {path:?}, unit {unit}, output {k}, ray {i}: {a:e} \
-                             against scalar {b:e}"
-                        );
-                    }
-                }
-            }
+            assert_paths_give_scalar_bits(&sc, &rays, unit, &scalar, &format!("σ {sigma}, "));
         }
     }
 }
