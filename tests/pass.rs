@@ -1759,8 +1759,9 @@ fn own_kernel_rows_of_constant_bu_at_their_edges() {
 /// it, `HeightPass::t_lo`: subnormal depths had formed subnormal products, 18× the time
 /// of typical depths on the Intel Xeon) and some above, linear and distance depths
 /// (raised before their division, `HeightPass::d_lo`), falloffs typical, steep, tiny and
-/// negative, coefficients from 1e-3 to 30: every pixel against the batch API (T exactly
-/// 1 where its T is, so the colour is left as it was) and the reference's bound.
+/// negative, coefficients from 1e-3 to 30, eyes 1.5 and 300 above the base (there
+/// `HeightPass::g_lo` raises g'): every pixel against the batch API (T exactly 1 where
+/// its T is, so the colour is left as it was) and the reference's bound.
 #[test]
 fn own_kernel_short_and_subnormal_depths() {
     let (w, h) = (21, 9);
@@ -1771,7 +1772,12 @@ fn own_kernel_short_and_subnormal_depths() {
         .map(|i| depths[(i * 5 + i / w) % depths.len()])
         .collect();
     let (mut frames, mut general, mut unit) = (0, 0, 0);
-    for &falloff in &[0.1f32, 3.0, 1e-9, -0.7] {
+    // Eyes at 1.5 and 300: from 300 above a fog of falloff 0.1, K ≈ 1e-18 and short
+    // rays would form subnormal k·g' (the frame's `HeightPass::g_lo` floor).
+    for (&falloff, &eye) in [0.1f32, 3.0, 1e-9, -0.7]
+        .iter()
+        .flat_map(|f| [(f, &1.5f32), (f, &300.0)])
+    {
         for &scale in &[1e-3f32, 1.0, 30.0] {
             for &roll in &[0.0f32, 0.08] {
                 for conv in [DepthConvention::LinearView, DepthConvention::Distance] {
@@ -1786,7 +1792,7 @@ fn own_kernel_short_and_subnormal_depths() {
                     );
                     let scene = Scene::new(desc.clone()).unwrap();
                     let cam = Camera::perspective(
-                        Vec3::new(0.0, 1.5, 0.0),
+                        Vec3::new(0.0, eye, 0.0),
                         Vec3::new(0.0, -0.1, -1.0).normalize(),
                         Vec3::new(roll, 1.0, 0.0),
                         1.1,
@@ -1801,7 +1807,7 @@ fn own_kernel_short_and_subnormal_depths() {
                     general += usize::from(rows == 0);
                     unit += usize::from(rows > 0);
                     let what = format!(
-                        "falloff {falloff}, scale {scale}, roll {roll}, {conv:?}, {rows} rows"
+                        "falloff {falloff}, eye {eye}, scale {scale}, roll {roll}, {conv:?}, {rows} rows"
                     );
                     let counts = own_kernel_against_batch_in(
                         &scene,
