@@ -2134,6 +2134,8 @@ mod tests {
             two(-52),
             two(43),
             two(90),
+            // The tame tests' floor on t.
+            two(-56),
         ]);
         // (2^k/0.1: the bounds on |b·u| of the sky and far lanes for the first layer.)
         let us = edge_values(&[

@@ -126,6 +126,10 @@ pub trait Lane:
     fn exponent_field(self) -> Self;
     /// `self` with its exponent field replaced by 127: sign * [1, 2) for normal inputs.
     fn with_unit_exponent(self) -> Self;
+    /// The bits of `self` read as an `i32`, converted to f32 (`vcvtdq2ps`): exact for the
+    /// bits of a non-negative subnormal or zero (below 2^23), which it gives as
+    /// `self · 2^149` without arithmetic on the subnormal.
+    fn bits_as_int(self) -> Self;
 
     /// Clamp to `[lo, hi]`; a NaN lane stays NaN.
     #[inline(always)]
@@ -386,6 +390,10 @@ impl Lane for f32 {
     fn with_unit_exponent(self) -> Self {
         f32::from_bits((self.to_bits() & 0x807f_ffff) | 0x3f80_0000)
     }
+    #[inline(always)]
+    fn bits_as_int(self) -> Self {
+        self.to_bits() as i32 as f32
+    }
 }
 
 macro_rules! impl_lane_wide {
@@ -517,6 +525,10 @@ macro_rules! impl_lane_wide {
                         (as_i(self) & <$I>::splat(0x807f_ffff_u32 as i32))
                             | <$I>::splat(0x3f80_0000),
                     )
+                }
+                #[inline(always)]
+                fn bits_as_int(self) -> Self {
+                    as_i(self).round_float()
                 }
                 $($avx)*
             }

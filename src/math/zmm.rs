@@ -315,6 +315,10 @@ impl Lane for Zmm {
             )
         })
     }
+    #[inline(always)]
+    fn bits_as_int(self) -> Self {
+        Zmm(unsafe { _mm512_cvtepi32_ps(self.bits()) })
+    }
     /// As the x86-64-v4 build's `frexp_finite` (`math::lane`'s AVX-512 module): getexp
     /// gives −inf for ±0 and +inf for ±inf, mended to the generic form's −151 and 128
     /// (`minps` also brings NaN's exponent to 128); getmant gives ±1 for ±0, mended to 0.
@@ -617,6 +621,7 @@ mod tests {
             ("neg", one!(Lane::neg)),
             ("exponent_field", one!(Lane::exponent_field)),
             ("with_unit_exponent", one!(Lane::with_unit_exponent)),
+            ("bits_as_int", one!(Lane::bits_as_int)),
         ];
         let bad: Vec<_> = counts.iter().filter(|(_, n)| *n > 0).collect();
         assert!(bad.is_empty(), "Zmm differs from scalar: {bad:?}");

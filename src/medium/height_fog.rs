@@ -357,6 +357,10 @@ const TWO_M100: f32 = 7.888_609e-31;
 const TAME_M_MIN: f32 = 9.536_743e-7; // 2^-20
 const TAME_M_MAX: f32 = 2_147_483_648.0; // 2^31
 const TAME_DELTA_MAX: f32 = 256.0;
+/// The least t the tame tests multiply by (2^-56; NaN and smaller t, zero and negative
+/// included, are raised to it): every lane they accept has t above it (m = n_m·t with
+/// n_m < 4 below 2^-52 fails them: zero lanes are told by t itself and get m = +0).
+const TAME_T_FLOOR: f32 = 1.387_778_8e-17; // 2^-56
 /// Sky lanes of [`depth_args_tame_wide`] (t = +∞): |b·u| in [2^-38, 2^12), scaled into
 /// φ's argument by 2^17 from 2^-12 up, else by 2^43.
 const TAME_SKY_MIN: f32 = 3.637_978_8e-12; // 2^-38
@@ -408,6 +412,10 @@ pub(crate) fn depth_args_tame<L: Lane>(
     t: L,
     norm: (L, L),
 ) -> (DepthArgs<L>, L::Mask) {
+    // t raised to TAME_T_FLOOR (one `maxps`): a lane below it fails the bounds either
+    // way, and the products stay normal (a subnormal t made both products subnormal, a
+    // microcode assist each on Intel: `short_1e-40` 11× typical time on the 8-lane path).
+    let t = t.max(L::splat(TAME_T_FLOOR));
     let m = norm.0 * t;
     let d = (L::splat(layer.b) * u) * t;
     let ad = d.abs();
@@ -440,10 +448,11 @@ const M_SHIFT_EXP: f32 = 32.0;
 /// [`depth_args_tame`]'s arguments widened, for a packet where it rejected some lane:
 /// four more kinds of lane (y and |d| finite in all) give the same bits after stage 3 as
 /// the general path, three of them by an exact power of two.
-/// - **Zero lanes**, t = ±0 with b·u finite: the plain arguments as they are. The
+/// - **Zero lanes**, t = ±0 with b·u finite: the plain arguments with m = +0. The
 ///   general path's G is (n_m·(±0) + guard)·φ·e^(−u_min) = +0, with φ(2^-60) = 1 and a
-///   finite e^(−u_min) (y finite), and so is this one (m = |n_m·t| = +0, Δ = ±0, so φ's
-///   argument is 2^-60 and −u_min = −a0s·2^64); τ = +0 at any exponent. (A depth
+///   finite e^(−u_min) (y finite), and so is this one (Δ = b·u·2^-56 from the raised t,
+///   so φ's argument is finite and at least 2^-60, and −u_min is finite where the
+///   general path's is); τ = +0 at any exponent. (A depth
 ///   buffer's pixel at the eye, a batch's padding: these took the general path, at 1.6×
 ///   the time.)
 /// - **Near lanes**, |d|·t in [2^-52, 2^-20) or (2^31, 2^43], otherwise within the plain
@@ -527,7 +536,7 @@ pub(crate) fn depth_args_tame_wide<L: Lane>(
     // Sky lanes with |b·u| in [2^-38, 2^-12) (nearly level rays).
     let (args, sky) = sky_lanes((args, inf, abu, norm), TAME_SKY_MIN, TAME_SKY_MID, 1);
     let ok = ok | sky;
-    let d = bu * t;
+    let d = bu * t.max(L::splat(TAME_T_FLOOR));
     let ad = d.abs();
     // t > 0: m carries no guard here.
     let far = ad.ge(L::splat(TAME_DELTA_MAX))
@@ -542,15 +551,15 @@ pub(crate) fn depth_args_tame_wide<L: Lane>(
         & m.ge(L::splat(TAME_WIDE_M_MIN))
         & m.le(L::splat(TAME_WIDE_M_MAX))
         & y_fin;
-    // Zero lanes (t = ±0): m = ±0, made +0 below (the general path's G, see above).
+    // Zero lanes (t = ±0): m made +0 below (the general path's G, see above).
     let zero = t.eq(L::splat(0.0)) & abu.le(L::splat(f32::MAX)) & fin;
     let scaled = near & !ok;
     let small = m.lt(L::splat(TAME_M_MIN));
     let scale = L::select(small, L::splat(M_SHIFT), L::splat(1.0 / M_SHIFT));
     let shift = L::select(small, L::splat(-M_SHIFT_EXP), L::splat(M_SHIFT_EXP));
-    // (|m|: m ≥ +0 on every lane accepted, and +0 for t = −0.)
+    // (m > 0 on every other lane accepted.)
     let args = DepthArgs {
-        m: L::select(scaled, m * scale, m).abs(),
+        m: L::select(zero, L::splat(0.0), L::select(scaled, m * scale, m)),
         e: L::select(scaled, norm.1 + shift, args.e),
         ..args
     };
