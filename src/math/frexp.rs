@@ -28,10 +28,10 @@ pub(crate) fn frexp_bits<L: Lane>(x: L) -> (L, L) {
     let ax = x.abs();
     let tiny = ax.lt(L::splat(MIN_NORMAL));
     let zero = x.eq(L::splat(0.0));
-    let xs = L::select(tiny, ax.bits_as_int().copysign(x), x);
+    let xs = L::select(tiny, ax.bits_as_int(), x);
     let e = xs.exponent_field() - L::select(tiny, L::splat(127.0 + 149.0), L::splat(127.0));
     let e = L::select(zero, L::splat(ZERO_EXPONENT), e);
-    let m = L::select(zero, L::splat(0.0), xs.with_unit_exponent());
+    let m = L::select(zero, L::splat(0.0), xs.with_unit_exponent_sign(x));
     (m, e)
 }
 

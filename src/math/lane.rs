@@ -126,6 +126,12 @@ pub trait Lane:
     fn exponent_field(self) -> Self;
     /// `self` with its exponent field replaced by 127: sign * [1, 2) for normal inputs.
     fn with_unit_exponent(self) -> Self;
+    /// [`Lane::with_unit_exponent`] with the sign of `sign`: |m| in [1, 2) from `self`'s
+    /// mantissa bits.
+    #[inline(always)]
+    fn with_unit_exponent_sign(self, sign: Self) -> Self {
+        self.with_unit_exponent().copysign(sign)
+    }
     /// The bits of `self` read as an `i32`, converted to f32 (`vcvtdq2ps`): exact for the
     /// bits of a non-negative subnormal or zero (below 2^23), which it gives as
     /// `self · 2^149` without arithmetic on the subnormal.
@@ -529,6 +535,11 @@ macro_rules! impl_lane_wide {
                 #[inline(always)]
                 fn bits_as_int(self) -> Self {
                     as_i(self).round_float()
+                }
+                #[inline(always)]
+                fn with_unit_exponent_sign(self, sign: Self) -> Self {
+                    let s = (as_i(sign) & <$I>::splat(i32::MIN)) | <$I>::splat(0x3f80_0000);
+                    as_f((as_i(self) & <$I>::splat(0x007f_ffff)) | s)
                 }
                 $($avx)*
             }
