@@ -1271,3 +1271,66 @@ fn subnormal_optical_depths_give_the_scalar_bits() {
         }
     }
 }
+
+/// Segment lengths below 2^-126, zero and about the tame tests' floor on t (2^-56),
+/// among typical ones: the 8-lane tame tests raise t to the floor and the generic frexp
+/// normalizes a subnormal through its bits (no microcode assist), and every path must
+/// still give the scalar path's bits (every output, both direction forms, stretches of
+/// 1 to 40 such rays at every lane position) and the reference's values.
+#[test]
+fn subnormal_segment_lengths_give_the_scalar_bits() {
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut uni = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let floor = 2f32.powi(-56);
+    // Lengths the general first stage takes (t below 2^-54 but for 0)...
+    let general = [
+        f32::from_bits(1),
+        f32::MIN_POSITIVE,
+        f32::from_bits(f32::MIN_POSITIVE.to_bits() - 1),
+        f32::from_bits(floor.to_bits() - 1),
+        floor,
+        f32::from_bits(floor.to_bits() + 1),
+        2f32.powi(-54),
+    ];
+    // ... and those the widened tame stage takes (zero and near lanes).
+    let widened = [0.0, 2f32.powi(-52), 0.0, 2f32.powi(-40), 1e-10, 0.0, 9.5e-7];
+    let desc = reference::peer::scene_desc();
+    let sc = Scene::new(desc.clone()).unwrap();
+    let mut rays: Vec<Ray> = Vec::new();
+    // Stretches of subnormal lengths, of the general stage's and of the widened stage's
+    // lengths, each stretch length three times.
+    let mut k = 0;
+    let stretches = [1usize, 7, 16, 3, 40, 2, 17, 9];
+    for (si, stretch) in stretches.iter().cycle().take(24).copied().enumerate() {
+        for i in 0..stretch + 13 {
+            let dy = uni() * 1.8 - 0.9;
+            let d = Vec3::new((1.0 - dy * dy).sqrt(), dy, 0.0);
+            let o = Vec3::new(0.0, 2.0 + 20.0 * uni(), 0.0);
+            let t = if i >= stretch {
+                1.0 + 1e3 * uni()
+            } else if si % 3 == 1 {
+                k += 1;
+                general[k % general.len()]
+            } else if si % 3 == 2 {
+                k += 1;
+                widened[k % widened.len()]
+            } else {
+                // Subnormal: 1e-45 to 1e-38.
+                10f32.powf(-45.0 + 7.0 * uni())
+            };
+            rays.push((o, d, t));
+        }
+    }
+    assert!(rays.iter().any(|r| r.2 > 0.0 && r.2 < f32::MIN_POSITIVE));
+    for unit in [true, false] {
+        let want = [true; 3];
+        let scalar = eval(&sc, &rays, unit, Path::Scalar, want);
+        check_batch(&desc, &rays, &scalar).unwrap_or_else(|e| panic!("unit {unit}: {e}"));
+        assert_paths_give_scalar_bits(&sc, &rays, unit, &scalar, "");
+    }
+}
