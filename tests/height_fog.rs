@@ -1147,6 +1147,16 @@ fn subnormal_falloffs_with_long_rays() {
     }
 }
 
+/// A xorshift64 stream of uniform f32 in [0, 1) (24 bits each), from `seed`.
+fn uniform(mut state: u64) -> impl FnMut() -> f32 {
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
 /// Every output of the x8 (with and without AVX-512 dispatch) and rayon paths has the bits
 /// of `scalar`, the scalar path's outputs for the same batch.
 fn assert_paths_give_scalar_bits(sc: &Scene, rays: &[Ray], unit: bool, scalar: &Out, ctx: &str) {
@@ -1179,13 +1189,7 @@ fn stretches_of_extreme_and_typical_rays_give_the_scalar_bits() {
     let desc = reference::peer::scene_desc();
     let sc = Scene::new(desc.clone()).unwrap();
     let mut rays: Vec<Ray> = Vec::new();
-    let mut state = 0x2545_f491_4f6c_dd1du64;
-    let mut uni = || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut uni = uniform(0x2545_f491_4f6c_dd1du64);
     for (stretch, extreme) in [
         (1500, true),
         (700, false),
@@ -1226,13 +1230,7 @@ fn stretches_of_extreme_and_typical_rays_give_the_scalar_bits() {
 /// wide-ratio extinctions (one τ, one pair of scale factors, one ldexp per channel).
 #[test]
 fn subnormal_optical_depths_give_the_scalar_bits() {
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
-    let mut uni = || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut uni = uniform(0x9e37_79b9_7f4a_7c15u64);
     for sigma in [
         Vec3::splat(3e-37),
         Vec3::new(2e-37, 3e-37, 5e-37),
@@ -1279,13 +1277,7 @@ fn subnormal_optical_depths_give_the_scalar_bits() {
 /// 1 to 40 such rays at every lane position) and the reference's values.
 #[test]
 fn subnormal_segment_lengths_give_the_scalar_bits() {
-    let mut state = 0x2545_f491_4f6c_dd1du64;
-    let mut uni = || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut uni = uniform(0x853c_49e6_748f_ea9bu64);
     let floor = 2f32.powi(-56);
     // Lengths the general first stage takes (t below 2^-54 but for 0)...
     let general = [
