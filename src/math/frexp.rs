@@ -21,7 +21,7 @@ pub fn frexp<L: Lane>(x: L) -> (L, L) {
 ///
 /// A subnormal is normalized through its bits read as an integer, |x|·2^149 (exact,
 /// below 2^23), not by a multiply: on Intel a multiply with a subnormal operand costs a
-/// microcode assist of ~150 cycles (segments of subnormal length ran at 11× the time of
+/// microcode assist of 130–200 cycles (segments of subnormal length ran at 11× the time of
 /// typical ones on the 8-lane path: `examples/speedscan.rs`, `short_1e-40`).
 #[inline(always)]
 pub(crate) fn frexp_bits<L: Lane>(x: L) -> (L, L) {
