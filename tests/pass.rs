@@ -1916,3 +1916,103 @@ fn own_kernel_nan_depth_gives_nan_fog() {
         }
     }
 }
+
+/// The own kernel's composite at the ends of the colour range: L ← c + (L − c)·T where
+/// every fog colour c of the frame is at most 2^100 (`HeightPass::lerp`: L − c cannot
+/// overflow, and is never ∞ times T = 0), L·T + c·(1 − T) above it, and the colour
+/// clamped where it may exceed 1e38; on colour buffers holding ±f32::MAX, ±1e30, ±1 and 0
+/// among depths whose T is 0, 1 and between (`saturation_depths`). No NaN anywhere;
+/// every pixel whose composite L·T + L_in (T and L_in from the batch API, in f64) is below
+/// f32::MAX within 2e-5·(|L| + C) of it (C the frame's largest L_in, the fog colour where
+/// T = 0), finite where it is below 0.999·f32::MAX; the three layouts the same bits.
+#[test]
+fn own_kernel_composite_of_extreme_colours() {
+    let (w, h) = (37, 5);
+    let n = w * h;
+    let surfaces = [
+        f32::MAX,
+        -f32::MAX,
+        1e30,
+        -1e30,
+        1.0,
+        -1.0,
+        0.0,
+        3e38,
+        -2.5e38,
+        0.25,
+    ];
+    let cam = Camera::perspective(
+        Vec3::new(0.0, 2.0, 0.0),
+        Vec3::new(0.0, -0.1, -1.0).normalize(),
+        Vec3::Y,
+        1.2,
+        w as f32 / h as f32,
+    )
+    .unwrap();
+    let conv = DepthConvention::LinearView;
+    let depth = saturation_depths(n);
+    let mut checked = 0;
+    // The sun's radiance sets the fog colour's scale: the first two frames composite as
+    // c + (L − c)·T, the others as L·T + L_in (the last one with the colour's clamp).
+    for &radiance in &[20.0f32, 1e29, 1e31, 1e37, 3e38] {
+        let mut desc = typical_sunlit_layer();
+        if let Some(sun) = desc.lighting.sun.as_mut() {
+            sun.radiance = Vec3::splat(radiance);
+        }
+        let scene = Scene::new(desc.clone()).unwrap();
+        assert!(scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap());
+        let d = Depth {
+            values: &depth,
+            convention: conv,
+        };
+        let surface = |i: usize, c: usize| surfaces[(3 * i + c + i / w) % surfaces.len()];
+        let mut rgb: Vec<f32> = (0..3 * n).map(|k| surface(k / 3, k % 3)).collect();
+        let mut rgba: Vec<f32> = (0..4 * n)
+            .map(|k| {
+                if k % 4 == 3 {
+                    0.5
+                } else {
+                    surface(k / 4, k % 4)
+                }
+            })
+            .collect();
+        let mut planes = [0, 1, 2].map(|c| (0..n).map(|i| surface(i, c)).collect::<Vec<_>>());
+        scene
+            .fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut rgb))
+            .unwrap();
+        scene
+            .fog_pass(&cam, w, h, d, ColourBuffer::Rgba(&mut rgba))
+            .unwrap();
+        let [pr, pg, pb] = &mut planes;
+        scene
+            .fog_pass(&cam, w, h, d, ColourBuffer::Planar([pr, pg, pb]))
+            .unwrap();
+        let (bt, bl) = batch_reference(&scene, &cam, w, h, &depth, conv);
+        let scale = bl.iter().flatten().fold(1e-30f64, |m, &l| m.max(l as f64));
+        for i in 0..n {
+            for c in 0..3 {
+                let ctx = || format!("radiance {radiance}, pixel {i}, channel {c}");
+                let out = rgb[3 * i + c];
+                assert_eq!(out.to_bits(), rgba[4 * i + c].to_bits(), "RGBA: {}", ctx());
+                assert_eq!(out.to_bits(), planes[c][i].to_bits(), "planar: {}", ctx());
+                assert!(!out.is_nan(), "NaN: {}", ctx());
+                let l = surface(i, c) as f64;
+                let want = l * bt[i][c] as f64 + bl[i][c] as f64;
+                if want.abs() < 0.999 * f32::MAX as f64 {
+                    assert!(out.is_finite(), "{out} for {want}: {}", ctx());
+                }
+                if want.abs() <= f32::MAX as f64 {
+                    let tol = 2e-5 * (l.abs() + scale);
+                    assert!(
+                        (out as f64 - want).abs() <= tol,
+                        "{out} against {want}: {}",
+                        ctx()
+                    );
+                    checked += 1;
+                }
+            }
+            assert_eq!(rgba[4 * i + 3], 0.5, "alpha");
+        }
+    }
+    assert!(checked >= 5 * 3 * n * 9 / 10, "{checked} channels checked");
+}

@@ -473,6 +473,12 @@ pub(crate) struct HeightPass {
     /// the phase function takes, stays below f32::MAX: its clamp ([`clamp_colour`]) can
     /// be left out (three operations per packet in the third stage).
     colour_bounded: bool,
+    /// Every value of the fog colour c is at most [`LERP_COLOUR_MAX`] in magnitude: the
+    /// pixel is composited as L ← c + (L − c)·T ([`RowColour::lerp_rgb3`]), one fused
+    /// multiply-add and one subtraction per channel, instead of L·T + (c − c·T), two
+    /// fused multiply-adds (so L − c cannot overflow for any finite L, and
+    /// (L − c)·T is never ∞·0).
+    lerp: bool,
     /// Some channel has K_c = 0: g' is clamped to f32::MAX so that its τ is 0·g' = 0,
     /// not 0·∞ (elsewhere an infinite g' gives T = 0, as it must: the true τ is at least
     /// K_min·3.4e38 ≥ 3.4e8).
@@ -743,6 +749,15 @@ impl HeightPass {
                 c <= 1e38
             })
         };
+        // The same bound over every phase function, for the composite's form.
+        let lerp = (0..3).all(|j| {
+            let c = phases[..n_phases]
+                .iter()
+                .map(|p| f64::from(p.k[j]).abs() * 2.0 * p.peak())
+                .sum::<f64>()
+                + f64::from(layer.colour_const[j]).abs();
+            c <= LERP_COLOUR_MAX
+        });
         Some(HeightPass {
             grey: k[0] == k[1] && k[1] == k[2],
             k,
@@ -755,6 +770,7 @@ impl HeightPass {
             n_phases,
             beta: phases.iter().any(|p| p.beta != 0.0),
             colour_bounded,
+            lerp,
             clamp_g: k.contains(&0.0) || k2.contains(&0.0),
             fast: scene.tier == Tier::Fast,
             depth,
@@ -913,6 +929,11 @@ fn rows_with<'a, R: RowColour, W: PassLane, const PH: usize, const GREY: bool, c
 /// Packets per block: the row is processed block by block in stages (see [`row`]).
 const BLOCK: usize = 16;
 
+/// The largest fog colour (2^100) for which the pass composites as c + (L − c)·T
+/// (`HeightPass::lerp`): for finite L, |L − c| rounds to at most f32::MAX (half an ULP
+/// of f32::MAX is 2^103).
+const LERP_COLOUR_MAX: f64 = 1.267_650_600_228_229_4e30;
+
 /// Fogs a row in blocks of [`BLOCK`] packets, each block in stages over small buffers:
 /// the rays' geometry, then their phase value or fog colour (the directions formed again:
 /// four operations per packet), then the optical depth's factor g' = n·t·exp2m1(y')/y',
@@ -1042,6 +1063,7 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
         }
     }
     let bounded = hp.colour_bounded;
+    let lerp = hp.lerp;
     let zero = W::splat(0.0);
     let n_lanes = W::LANES;
     let m = depth.len() / n_lanes;
@@ -1163,16 +1185,24 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
                     trans(k3[2], g3[2]),
                 ]
             };
-            let mut insc = [zero; 3];
+            let mut c = [zero; 3];
             for j in 0..3 {
-                let c = if PH == 1 {
+                c[j] = if PH == 1 {
                     p3[j].mul_add(phase_k3[j], colour3[j])
                 } else {
                     colour3[j]
                 };
-                insc[j] = in_scattered(clamp_unless(bounded, c), t[j]);
             }
-            out.fog_rgb3(x0, t, insc);
+            if lerp {
+                // (`lerp` implies `bounded`: no clamp.)
+                out.lerp_rgb3(x0, t, c);
+            } else {
+                let mut insc = [zero; 3];
+                for j in 0..3 {
+                    insc[j] = in_scattered(clamp_unless(bounded, c[j]), t[j]);
+                }
+                out.fog_rgb3(x0, t, insc);
+            }
         } else {
             let trans = if GREY {
                 [trans(W::splat(kk[0]), g); 3]
@@ -1201,6 +1231,11 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
                 }
                 _ => *c,
             };
+            if lerp {
+                out.lerp_wide(x0, n, trans, c);
+                x0 += n_lanes;
+                continue;
+            }
             let insc = [
                 in_scattered(c[0], trans[0]),
                 in_scattered(c[1], trans[1]),

@@ -503,6 +503,16 @@ trait RowColour {
         let _ = (x0, trans, insc);
         unreachable!("fog_rgb3 on a row that is not interleaved RGB");
     }
+    /// For [`RowColour::RGB3`] rows: `L = c + (L − c) · T` (the same pixel as
+    /// [`RowColour::fog_rgb3`] with L_in = c·(1 − T), rounded otherwise: one subtraction and
+    /// one fused multiply-add per channel) for the `W::LANES` pixels from `x0`, with T and
+    /// the fog colour c in the buffer's interleaved layout. The caller keeps |c| small
+    /// enough that L − c stays finite for finite L (`height::HeightPass`'s `lerp`).
+    #[inline(always)]
+    fn lerp_rgb3<W: Lane>(&mut self, x0: usize, trans: [W; 3], colour: [W; 3]) {
+        let _ = (x0, trans, colour);
+        unreachable!("lerp_rgb3 on a row that is not interleaved RGB");
+    }
     /// Asks the cache for the colour of the `n` pixels from `x0` ahead of
     /// [`RowColour::fog_rgb3`]/[`RowColour::fog_wide`] (a hint; nothing by default).
     #[inline(always)]
@@ -526,6 +536,27 @@ trait RowColour {
                 let t = [trans[0].part(h), trans[1].part(h), trans[2].part(h)];
                 let l = [insc[0].part(h), insc[1].part(h), insc[2].part(h)];
                 self.fog(x0 + 8 * h, live, t, l);
+            }
+        }
+    }
+    /// `L = c + (L − c) · T` ([`RowColour::lerp_rgb3`]'s operations) for the `n` pixels
+    /// from `x0`, with the fog colour c per channel.
+    #[inline(always)]
+    fn lerp(&mut self, x0: usize, n: usize, trans: [f32x8; 3], colour: [f32x8; 3]) {
+        let l = self.load(x0, n);
+        let v = rgb!(ch => Lane::mul_add(l[ch] - colour[ch], trans[ch], colour[ch]));
+        self.store(x0, n, v);
+    }
+    /// [`RowColour::lerp`] for a packet of `W::LANES` pixels (`n` of them live), in pieces
+    /// of 8.
+    #[inline(always)]
+    fn lerp_wide<W: PassLane>(&mut self, x0: usize, n: usize, trans: [W; 3], colour: [W; 3]) {
+        for h in 0..W::LANES / 8 {
+            let live = n.saturating_sub(8 * h).min(8);
+            if live > 0 {
+                let t = [trans[0].part(h), trans[1].part(h), trans[2].part(h)];
+                let c = [colour[0].part(h), colour[1].part(h), colour[2].part(h)];
+                self.lerp(x0 + 8 * h, live, t, c);
             }
         }
     }
@@ -589,6 +620,15 @@ impl<const C: usize> RowColour for Interleaved<'_, C> {
         }
     }
     #[inline(always)]
+    fn lerp_rgb3<W: Lane>(&mut self, x0: usize, trans: [W; 3], colour: [W; 3]) {
+        let n = W::LANES;
+        let s = &mut self.0[x0 * 3..(x0 + n) * 3];
+        for j in 0..3 {
+            let l = W::load(&s[n * j..n * j + n]);
+            Lane::mul_add(l - colour[j], trans[j], colour[j]).store(&mut s[n * j..n * j + n]);
+        }
+    }
+    #[inline(always)]
     fn load(&self, x0: usize, n: usize) -> [f32x8; 3] {
         let mut v = [[0.0f32; 8]; 3];
         if n == 8 {
@@ -644,6 +684,22 @@ impl<const C: usize> RowColour for Interleaved<'_, C> {
             self.store(x0, n, v);
         }
     }
+    #[inline(always)]
+    fn lerp(&mut self, x0: usize, n: usize, trans: [f32x8; 3], colour: [f32x8; 3]) {
+        if C == 3 && n == 8 {
+            // As in `fog`: T and c interleaved, the colour moved as three whole lanes.
+            let (t, c) = (interleave3(trans), interleave3(colour));
+            let s = &mut self.0[x0 * 3..(x0 + 8) * 3];
+            for j in 0..3 {
+                let l = f32x8::load(&s[8 * j..8 * j + 8]);
+                Lane::mul_add(l - c[j], t[j], c[j]).store(&mut s[8 * j..8 * j + 8]);
+            }
+        } else {
+            let l = self.load(x0, n);
+            let v = rgb!(ch => Lane::mul_add(l[ch] - colour[ch], trans[ch], colour[ch]));
+            self.store(x0, n, v);
+        }
+    }
 }
 
 /// A row of a planar buffer.
@@ -670,6 +726,14 @@ impl<R: RowColour> RowColour for &mut R {
     #[inline(always)]
     fn fog(&mut self, x0: usize, n: usize, trans: [f32x8; 3], insc: [f32x8; 3]) {
         (**self).fog(x0, n, trans, insc)
+    }
+    #[inline(always)]
+    fn lerp_rgb3<W: Lane>(&mut self, x0: usize, trans: [W; 3], colour: [W; 3]) {
+        (**self).lerp_rgb3(x0, trans, colour)
+    }
+    #[inline(always)]
+    fn lerp(&mut self, x0: usize, n: usize, trans: [f32x8; 3], colour: [f32x8; 3]) {
+        (**self).lerp(x0, n, trans, colour)
     }
 }
 
