@@ -474,7 +474,7 @@ pub(crate) struct HeightPass {
     /// be left out (three operations per packet in the third stage).
     colour_bounded: bool,
     /// Every value of the fog colour c is at most [`LERP_COLOUR_MAX`] in magnitude: the
-    /// pixel is composited as L ← c + (L − c)·T ([`RowColour::lerp_rgb3`]), one fused
+    /// pixel is composited as L ← c + (L − c)·T ([`super::over`]), one fused
     /// multiply-add and one subtraction per channel, instead of L·T + (c − c·T), two
     /// fused multiply-adds (so L − c cannot overflow for any finite L, and
     /// (L − c)·T is never ∞·0).
@@ -1195,13 +1195,13 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
             }
             if lerp {
                 // (`lerp` implies `bounded`: no clamp.)
-                out.lerp_rgb3(x0, t, c);
+                out.fog_rgb3(x0, t, c, true);
             } else {
                 let mut insc = [zero; 3];
                 for j in 0..3 {
                     insc[j] = in_scattered(clamp_unless(bounded, c[j]), t[j]);
                 }
-                out.fog_rgb3(x0, t, insc);
+                out.fog_rgb3(x0, t, insc, false);
             }
         } else {
             let trans = if GREY {
@@ -1232,7 +1232,7 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
                 _ => *c,
             };
             if lerp {
-                out.lerp_wide(x0, n, trans, c);
+                out.fog_wide(x0, n, trans, c, true);
                 x0 += n_lanes;
                 continue;
             }
@@ -1241,7 +1241,7 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
                 in_scattered(c[1], trans[1]),
                 in_scattered(c[2], trans[2]),
             ];
-            out.fog_wide(x0, n, trans, insc);
+            out.fog_wide(x0, n, trans, insc, false);
         }
         x0 += n_lanes;
     }

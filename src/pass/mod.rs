@@ -495,23 +495,13 @@ trait RowColour {
     const RGB3: bool = false;
     fn load(&self, x0: usize, n: usize) -> [f32x8; 3];
     fn store(&mut self, x0: usize, n: usize, v: [f32x8; 3]);
-    /// For [`RowColour::RGB3`] rows: `L = L · T + L_in` for the `W::LANES` pixels from
-    /// `x0`, with T and L_in given in the buffer's interleaved layout (3·LANES values in
-    /// three vectors).
+    /// For [`RowColour::RGB3`] rows: [`over`] for the `W::LANES` pixels from `x0`, with T
+    /// and `v` (L_in, or with `lerp` the fog colour) given in the buffer's interleaved
+    /// layout (3·LANES values in three vectors).
     #[inline(always)]
-    fn fog_rgb3<W: Lane>(&mut self, x0: usize, trans: [W; 3], insc: [W; 3]) {
-        let _ = (x0, trans, insc);
+    fn fog_rgb3<W: Lane>(&mut self, x0: usize, trans: [W; 3], v: [W; 3], lerp: bool) {
+        let _ = (x0, trans, v, lerp);
         unreachable!("fog_rgb3 on a row that is not interleaved RGB");
-    }
-    /// For [`RowColour::RGB3`] rows: `L = c + (L − c) · T` (the same pixel as
-    /// [`RowColour::fog_rgb3`] with L_in = c·(1 − T), rounded otherwise: one subtraction and
-    /// one fused multiply-add per channel) for the `W::LANES` pixels from `x0`, with T and
-    /// the fog colour c in the buffer's interleaved layout. The caller keeps |c| small
-    /// enough that L − c stays finite for finite L (`height::HeightPass`'s `lerp`).
-    #[inline(always)]
-    fn lerp_rgb3<W: Lane>(&mut self, x0: usize, trans: [W; 3], colour: [W; 3]) {
-        let _ = (x0, trans, colour);
-        unreachable!("lerp_rgb3 on a row that is not interleaved RGB");
     }
     /// Asks the cache for the colour of the `n` pixels from `x0` ahead of
     /// [`RowColour::fog_rgb3`]/[`RowColour::fog_wide`] (a hint; nothing by default).
@@ -519,46 +509,39 @@ trait RowColour {
     fn prefetch(&self, x0: usize, n: usize) {
         let _ = (x0, n);
     }
-    /// `L = L · T + L_in` for the `n` pixels from `x0`: one fused multiply-add per channel.
+    /// [`over`] for the `n` pixels from `x0`.
     #[inline(always)]
-    fn fog(&mut self, x0: usize, n: usize, trans: [f32x8; 3], insc: [f32x8; 3]) {
-        let c = self.load(x0, n);
-        let v = rgb!(ch => Lane::mul_add(c[ch], trans[ch], insc[ch]));
-        self.store(x0, n, v);
+    fn fog(&mut self, x0: usize, n: usize, trans: [f32x8; 3], v: [f32x8; 3], lerp: bool) {
+        let l = self.load(x0, n);
+        let out = rgb!(ch => over(l[ch], trans[ch], v[ch], lerp));
+        self.store(x0, n, out);
     }
     /// [`RowColour::fog`] for a packet of `W::LANES` pixels (`n` of them live), in pieces
     /// of 8: the layouts load and store 8 lanes.
     #[inline(always)]
-    fn fog_wide<W: PassLane>(&mut self, x0: usize, n: usize, trans: [W; 3], insc: [W; 3]) {
+    fn fog_wide<W: PassLane>(&mut self, x0: usize, n: usize, trans: [W; 3], v: [W; 3], lerp: bool) {
         for h in 0..W::LANES / 8 {
             let live = n.saturating_sub(8 * h).min(8);
             if live > 0 {
                 let t = [trans[0].part(h), trans[1].part(h), trans[2].part(h)];
-                let l = [insc[0].part(h), insc[1].part(h), insc[2].part(h)];
-                self.fog(x0 + 8 * h, live, t, l);
+                let v = [v[0].part(h), v[1].part(h), v[2].part(h)];
+                self.fog(x0 + 8 * h, live, t, v, lerp);
             }
         }
     }
-    /// `L = c + (L − c) · T` ([`RowColour::lerp_rgb3`]'s operations) for the `n` pixels
-    /// from `x0`, with the fog colour c per channel.
-    #[inline(always)]
-    fn lerp(&mut self, x0: usize, n: usize, trans: [f32x8; 3], colour: [f32x8; 3]) {
-        let l = self.load(x0, n);
-        let v = rgb!(ch => Lane::mul_add(l[ch] - colour[ch], trans[ch], colour[ch]));
-        self.store(x0, n, v);
-    }
-    /// [`RowColour::lerp`] for a packet of `W::LANES` pixels (`n` of them live), in pieces
-    /// of 8.
-    #[inline(always)]
-    fn lerp_wide<W: PassLane>(&mut self, x0: usize, n: usize, trans: [W; 3], colour: [W; 3]) {
-        for h in 0..W::LANES / 8 {
-            let live = n.saturating_sub(8 * h).min(8);
-            if live > 0 {
-                let t = [trans[0].part(h), trans[1].part(h), trans[2].part(h)];
-                let c = [colour[0].part(h), colour[1].part(h), colour[2].part(h)];
-                self.lerp(x0 + 8 * h, live, t, c);
-            }
-        }
+}
+
+/// A pixel's channel L fogged: `L · T + v` (v = L_in: one fused multiply-add), or with
+/// `lerp` `v + (L − v) · T` (v = the fog colour c, L_in = c·(1 − T): a subtraction and
+/// one fused multiply-add, the same pixel rounded otherwise; the caller keeps |c| small
+/// enough that L − c stays finite for finite L: `height::HeightPass`'s `lerp`). `lerp` is
+/// a literal or a frame's constant at each call.
+#[inline(always)]
+fn over<W: Lane>(l: W, t: W, v: W, lerp: bool) -> W {
+    if lerp {
+        Lane::mul_add(l - v, t, v)
+    } else {
+        Lane::mul_add(l, t, v)
     }
 }
 
@@ -611,21 +594,12 @@ impl<const C: usize> RowColour for Interleaved<'_, C> {
         prefetch_bytes(self.0.as_ptr().wrapping_add(x0 * C), n * C * 4);
     }
     #[inline(always)]
-    fn fog_rgb3<W: Lane>(&mut self, x0: usize, trans: [W; 3], insc: [W; 3]) {
-        let n = W::LANES;
-        let s = &mut self.0[x0 * 3..(x0 + n) * 3];
-        for j in 0..3 {
-            let c = W::load(&s[n * j..n * j + n]);
-            Lane::mul_add(c, trans[j], insc[j]).store(&mut s[n * j..n * j + n]);
-        }
-    }
-    #[inline(always)]
-    fn lerp_rgb3<W: Lane>(&mut self, x0: usize, trans: [W; 3], colour: [W; 3]) {
+    fn fog_rgb3<W: Lane>(&mut self, x0: usize, trans: [W; 3], v: [W; 3], lerp: bool) {
         let n = W::LANES;
         let s = &mut self.0[x0 * 3..(x0 + n) * 3];
         for j in 0..3 {
             let l = W::load(&s[n * j..n * j + n]);
-            Lane::mul_add(l - colour[j], trans[j], colour[j]).store(&mut s[n * j..n * j + n]);
+            over(l, trans[j], v[j], lerp).store(&mut s[n * j..n * j + n]);
         }
     }
     #[inline(always)]
@@ -668,36 +642,20 @@ impl<const C: usize> RowColour for Interleaved<'_, C> {
         }
     }
     #[inline(always)]
-    fn fog(&mut self, x0: usize, n: usize, trans: [f32x8; 3], insc: [f32x8; 3]) {
+    fn fog(&mut self, x0: usize, n: usize, trans: [f32x8; 3], v: [f32x8; 3], lerp: bool) {
         if C == 3 && n == 8 {
-            // Interleave T and L_in (two sets of shuffles) rather than de-interleave the
+            // Interleave T and v (two sets of shuffles) rather than de-interleave the
             // colour and interleave it again: the colour moves as three whole lanes.
-            let (t, l) = (interleave3(trans), interleave3(insc));
-            let s = &mut self.0[x0 * 3..(x0 + 8) * 3];
-            for j in 0..3 {
-                let c = f32x8::load(&s[8 * j..8 * j + 8]);
-                Lane::mul_add(c, t[j], l[j]).store(&mut s[8 * j..8 * j + 8]);
-            }
-        } else {
-            let c = self.load(x0, n);
-            let v = rgb!(ch => Lane::mul_add(c[ch], trans[ch], insc[ch]));
-            self.store(x0, n, v);
-        }
-    }
-    #[inline(always)]
-    fn lerp(&mut self, x0: usize, n: usize, trans: [f32x8; 3], colour: [f32x8; 3]) {
-        if C == 3 && n == 8 {
-            // As in `fog`: T and c interleaved, the colour moved as three whole lanes.
-            let (t, c) = (interleave3(trans), interleave3(colour));
+            let (t, v) = (interleave3(trans), interleave3(v));
             let s = &mut self.0[x0 * 3..(x0 + 8) * 3];
             for j in 0..3 {
                 let l = f32x8::load(&s[8 * j..8 * j + 8]);
-                Lane::mul_add(l - c[j], t[j], c[j]).store(&mut s[8 * j..8 * j + 8]);
+                over(l, t[j], v[j], lerp).store(&mut s[8 * j..8 * j + 8]);
             }
         } else {
             let l = self.load(x0, n);
-            let v = rgb!(ch => Lane::mul_add(l[ch] - colour[ch], trans[ch], colour[ch]));
-            self.store(x0, n, v);
+            let out = rgb!(ch => over(l[ch], trans[ch], v[ch], lerp));
+            self.store(x0, n, out);
         }
     }
 }
@@ -712,8 +670,8 @@ impl<R: RowColour> RowColour for &mut R {
         (**self).prefetch(x0, n)
     }
     #[inline(always)]
-    fn fog_rgb3<W: Lane>(&mut self, x0: usize, trans: [W; 3], insc: [W; 3]) {
-        (**self).fog_rgb3(x0, trans, insc)
+    fn fog_rgb3<W: Lane>(&mut self, x0: usize, trans: [W; 3], v: [W; 3], lerp: bool) {
+        (**self).fog_rgb3(x0, trans, v, lerp)
     }
     #[inline(always)]
     fn load(&self, x0: usize, n: usize) -> [f32x8; 3] {
@@ -724,16 +682,8 @@ impl<R: RowColour> RowColour for &mut R {
         (**self).store(x0, n, v)
     }
     #[inline(always)]
-    fn fog(&mut self, x0: usize, n: usize, trans: [f32x8; 3], insc: [f32x8; 3]) {
-        (**self).fog(x0, n, trans, insc)
-    }
-    #[inline(always)]
-    fn lerp_rgb3<W: Lane>(&mut self, x0: usize, trans: [W; 3], colour: [W; 3]) {
-        (**self).lerp_rgb3(x0, trans, colour)
-    }
-    #[inline(always)]
-    fn lerp(&mut self, x0: usize, n: usize, trans: [f32x8; 3], colour: [f32x8; 3]) {
-        (**self).lerp(x0, n, trans, colour)
+    fn fog(&mut self, x0: usize, n: usize, trans: [f32x8; 3], v: [f32x8; 3], lerp: bool) {
+        (**self).fog(x0, n, trans, v, lerp)
     }
 }
 
@@ -817,7 +767,7 @@ impl<R: RowColour, W: PassLane> PacketIo<W> for RowIo<'_, R, W> {
     fn take(&mut self, i: usize, r: &PacketOut<W>) {
         let x0 = (self.first + i) * W::LANES;
         let n = (self.depth.len() - x0).min(W::LANES);
-        self.out.fog_wide(x0, n, r.trans, r.insc);
+        self.out.fog_wide(x0, n, r.trans, r.insc, false);
     }
 }
 
