@@ -469,9 +469,9 @@ pub(crate) struct HeightPass {
     n_phases: usize,
     /// Some phase term has β ≠ 0 (Rayleigh, Cornette–Shanks).
     beta: bool,
-    /// The fog colour with at most one phase function, `colour + p·k` for every value
-    /// the phase function takes, stays below f32::MAX: its clamp ([`clamp_colour`]) can
-    /// be left out (three operations per packet in the third stage).
+    /// The fog colour, `colour + Σ p·k` for every value the phase functions take, stays
+    /// below f32::MAX: its clamp ([`clamp_colour`]) can be left out where it is formed
+    /// in the third stage, with at most one phase function (three operations per packet).
     colour_bounded: bool,
     /// Every value of the fog colour c is at most [`LERP_COLOUR_MAX`] in magnitude: the
     /// pixel is composited as L ← c + (L − c)·T ([`super::over`]), one fused
@@ -734,30 +734,17 @@ impl HeightPass {
             }
             n_phases = single.n_phases;
         }
-        // The phase value is below twice `PhaseTerm::peak` (a margin far above its
-        // roundings).
-        let colour_bounded = {
-            let p_max = if n_phases >= 1 {
-                2.0 * phases[0].peak()
-            } else {
-                0.0
-            };
-            let k_phase = if n_phases >= 1 { phases[0].k } else { [0.0; 3] };
-            (0..3).all(|j| {
-                let c =
-                    f64::from(layer.colour_const[j]).abs() + f64::from(k_phase[j]).abs() * p_max;
-                c <= 1e38
-            })
-        };
-        // The same bound over every phase function, for the composite's form.
-        let lerp = (0..3).all(|j| {
-            let c = phases[..n_phases]
+        // A bound on |c| per channel: each phase value is below twice `PhaseTerm::peak` (a
+        // margin far above its roundings).
+        let colour_max = core::array::from_fn::<f64, 3, _>(|j| {
+            phases[..n_phases]
                 .iter()
                 .map(|p| f64::from(p.k[j]).abs() * 2.0 * p.peak())
                 .sum::<f64>()
-                + f64::from(layer.colour_const[j]).abs();
-            c <= LERP_COLOUR_MAX
+                + f64::from(layer.colour_const[j]).abs()
         });
+        let colour_bounded = colour_max.iter().all(|&c| c <= 1e38);
+        let lerp = colour_max.iter().all(|&c| c <= LERP_COLOUR_MAX);
         Some(HeightPass {
             grey: k[0] == k[1] && k[1] == k[2],
             k,
@@ -1233,15 +1220,14 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
             };
             if lerp {
                 out.fog_wide(x0, n, trans, c, true);
-                x0 += n_lanes;
-                continue;
+            } else {
+                let insc = [
+                    in_scattered(c[0], trans[0]),
+                    in_scattered(c[1], trans[1]),
+                    in_scattered(c[2], trans[2]),
+                ];
+                out.fog_wide(x0, n, trans, insc, false);
             }
-            let insc = [
-                in_scattered(c[0], trans[0]),
-                in_scattered(c[1], trans[1]),
-                in_scattered(c[2], trans[2]),
-            ];
-            out.fog_wide(x0, n, trans, insc, false);
         }
         x0 += n_lanes;
     }
