@@ -406,7 +406,7 @@ pub(crate) fn single_args<
         // scalef): there the general arithmetic costs less than this test (the `stiff`
         // set 1.41× faster without it, with 16 lanes on Zen 5; ARCHITECTURE).
         if !L::NATIVE_SCALE {
-            let (args, ok) = depth_args_tame_wide(&single.layer, y, u, p.t, norm, tame);
+            let (args, ok) = depth_args_tame_wide::<L, UNIT>(&single.layer, y, u, p.t, norm, tame);
             if !L::any(!ok) {
                 return (args, dir_out, false);
             }
@@ -2198,7 +2198,8 @@ mod tests {
                             total += 1;
                             let norm = (1.0, -0.0);
                             let plain = depth_args_tame(&s.layer, y, u, t, norm);
-                            let (_, ok) = depth_args_tame_wide(&s.layer, y, u, t, norm, plain);
+                            let (_, ok) =
+                                depth_args_tame_wide::<_, true>(&s.layer, y, u, t, norm, plain);
                             tame += ok as usize;
                             let plain = plain.1;
                             if ok && !plain {
@@ -2302,7 +2303,7 @@ mod tests {
                 let norm = (f32x8::splat(1.0), f32x8::splat(-0.0));
                 let tame = depth_args_tame(&s.layer, y, u, t, norm);
                 plain += tame.1.all() as usize;
-                let (_, ok) = depth_args_tame_wide(&s.layer, y, u, t, norm, tame);
+                let (_, ok) = depth_args_tame_wide::<_, true>(&s.layer, y, u, t, norm, tame);
                 wide += ok.all() as usize;
                 total += 1;
             }

@@ -488,7 +488,7 @@ const M_SHIFT_EXP: f32 = 32.0;
 /// rest is formed. The products below are [`depth_args_tame`]'s (LLVM forms them once
 /// where both run).
 #[inline(always)]
-pub(crate) fn depth_args_tame_wide<L: Lane>(
+pub(crate) fn depth_args_tame_wide<L: Lane, const UNIT: bool>(
     layer: &LayerCore,
     y: L,
     u: L,
@@ -505,43 +505,43 @@ pub(crate) fn depth_args_tame_wide<L: Lane>(
     let y_fin =
         (y - L::splat(layer.h0)).abs().le(L::splat(f32::MAX)) & args.neg_u_min.eq(args.neg_u_min);
     // |d| finite (an infinite component off the up axis makes the general path's guard
-    // NaN) and the height finite: sky and far lanes.
-    let fin = norm.0.le(L::splat(f32::MAX)) & y_fin;
+    // NaN) and the height finite: sky and far lanes. (|d| = 1 for `UNIT`: LLVM kept the
+    // compare of two constants.)
+    let fin = if UNIT {
+        y_fin
+    } else {
+        norm.0.le(L::splat(f32::MAX)) & y_fin
+    };
     let inf = t.eq(L::splat(f32::INFINITY)) & fin;
-    // Sky lanes with |b·u| ≥ 2^-12 first: a packet of them and plain lanes (a renderer's
-    // sky) stops here.
-    // The sky lanes with |b·u| in [lo, hi), scaled by SKY_SHIFT[k]. (A function, not a
-    // closure: see `kernel`'s `rgb!`.)
-    #[inline(always)]
-    fn sky_lanes<L: Lane>(
-        (args, inf, abu, norm): (DepthArgs<L>, L::Mask, L, (L, L)),
-        lo: f32,
-        hi: f32,
-        k: usize,
-    ) -> (DepthArgs<L>, L::Mask) {
-        let sky = inf & abu.ge(L::splat(lo)) & abu.lt(L::splat(hi));
-        let args = DepthArgs {
-            dc: L::select(sky, abu * L::splat(SKY_SHIFT[k]), args.dc),
-            m: L::select(sky, norm.0, args.m),
-            e: L::select(sky, norm.1 + L::splat(SKY_SHIFT_EXP[k]), args.e),
-            ..args
-        };
-        (args, sky)
-    }
-    let (args, sky) = sky_lanes((args, inf, abu, norm), TAME_SKY_MID, TAME_SKY_MAX, 0);
+    // Sky lanes, |b·u| in [2^-38, 2^12), scaled by SKY_SHIFT[1] below 2^-12 (nearly level
+    // rays) and SKY_SHIFT[0] from there on; a packet of them and plain lanes (a
+    // renderer's sky) stops here. (One test for both ranges: with a test and its
+    // blends per range, the `stiff` set paid for both.)
+    let level = abu.lt(L::splat(TAME_SKY_MID));
+    let sky = inf & abu.ge(L::splat(TAME_SKY_MIN)) & abu.lt(L::splat(TAME_SKY_MAX));
+    let shift = L::select(level, L::splat(SKY_SHIFT[1]), L::splat(SKY_SHIFT[0]));
+    let shift_e = L::select(
+        level,
+        L::splat(SKY_SHIFT_EXP[1]),
+        L::splat(SKY_SHIFT_EXP[0]),
+    );
+    let args = DepthArgs {
+        dc: L::select(sky, abu * shift, args.dc),
+        m: L::select(sky, norm.0, args.m),
+        e: L::select(sky, norm.1 + shift_e, args.e),
+        ..args
+    };
     let ok = ok | sky;
     if !L::any(!ok) {
         return (args, ok);
     }
-    // Sky lanes with |b·u| in [2^-38, 2^-12) (nearly level rays).
-    let (args, sky) = sky_lanes((args, inf, abu, norm), TAME_SKY_MIN, TAME_SKY_MID, 1);
-    let ok = ok | sky;
     let d = bu * t.max(L::splat(TAME_T_FLOOR));
     let ad = d.abs();
-    // t > 0: m carries no guard here.
+    // t > 0 (m carries no guard here) follows from |Δ| ≥ 2^8: NaN, negative and zero t
+    // were raised to TAME_T_FLOOR (`maxps` returns its second operand for NaN), and
+    // |b·u| < 2^29 times it is below 2^-27.
     let far = ad.ge(L::splat(TAME_DELTA_MAX))
         & ad.le(L::splat(TAME_FAR_MAX))
-        & t.gt(L::splat(0.0))
         & abu.ge(L::splat(TAME_FAR_BU_MIN))
         & abu.lt(L::splat(TAME_FAR_BU_MAX))
         & fin;
