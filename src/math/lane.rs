@@ -81,6 +81,13 @@ pub trait Lane:
     fn ne(self, b: Self) -> Self::Mask;
     /// `m ? a : b`, lane by lane.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    /// `m ? self : +0`, lane by lane: [`Lane::select`] with +0, the same bits (on `wide`
+    /// lanes one `and` with the mask, where LLVM made the blend with zero a compare of
+    /// the mask's sign and an `and`).
+    #[inline(always)]
+    fn keep(self, m: Self::Mask) -> Self {
+        Self::select(m, self, Self::splat(0.0))
+    }
     /// True if any lane of the mask is set.
     fn any(m: Self::Mask) -> bool;
 
@@ -508,6 +515,11 @@ macro_rules! impl_lane_wide {
                     m.select(a, b)
                 }
                 #[inline(always)]
+                fn keep(self, m: Self) -> Self {
+                    // (Masks are all-ones or all-zero lanes.)
+                    self & m
+                }
+                #[inline(always)]
                 fn any(m: Self) -> bool {
                     m.any()
                 }
@@ -820,4 +832,53 @@ mod avx512 {
         ),
         cfg(target_feature = "avx512vl")
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Lane;
+    use wide::{f32x16, f32x8};
+
+    /// `keep` gives `select`'s bits with +0 on every lane type with a `wide` mask (its own
+    /// implementation there), for masks from compares, NaN and signed zeros included.
+    #[test]
+    fn keep_is_select_with_zero() {
+        let vals = [
+            0.0f32,
+            -0.0,
+            1.5,
+            -2.0,
+            f32::MIN_POSITIVE,
+            f32::from_bits(1),
+            f32::MAX,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            -f32::NAN,
+            3e-31,
+        ];
+        fn check<L: Lane>(v: L, lim: L, out: &mut [f32], out2: &mut [f32]) {
+            for m in [v.abs().ge(lim), v.lt(lim), v.eq(v)] {
+                v.keep(m).store(out);
+                L::select(m, v, L::splat(0.0)).store(out2);
+                for (a, b) in out.iter().zip(out2.iter()) {
+                    assert_eq!(a.to_bits(), b.to_bits());
+                }
+            }
+        }
+        let (mut a, mut b) = ([0.0f32; 16], [0.0f32; 16]);
+        for &lim in &vals {
+            for k in 0..vals.len() {
+                let lanes: [f32; 16] = core::array::from_fn(|i| vals[(i + k) % vals.len()]);
+                check(lanes[0], lim, &mut a[..1], &mut b[..1]);
+                check(
+                    f32x8::from(<[f32; 8]>::try_from(&lanes[..8]).unwrap()),
+                    f32x8::splat(lim),
+                    &mut a[..8],
+                    &mut b[..8],
+                );
+                check(f32x16::from(lanes), f32x16::splat(lim), &mut a, &mut b);
+            }
+        }
+    }
 }

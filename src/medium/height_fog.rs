@@ -341,7 +341,7 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
 #[inline(always)]
 fn height_term<L: Lane>(layer: &LayerCore, y0: L) -> L {
     let tiny = L::splat(layer.tiny_height);
-    L::select(y0.abs().ge(tiny), y0, L::splat(0.0)) * L::splat(-layer.b)
+    y0.keep(y0.abs().ge(tiny)) * L::splat(-layer.b)
 }
 
 /// [`LayerCore::tiny_height`] of a layer with falloff `b`: 2^-100/|b| (+∞ for b = 0),
