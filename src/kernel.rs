@@ -112,7 +112,7 @@ fn height_scaled<L: Lane, const AXIS: usize>(p: &PacketIn<L>) -> L {
     // exponent saturates, where so small a height does not count (`depth_args_of`); the
     // guard reads the height itself (`packet_geom`).
     let y = p.o[AXIS];
-    L::select(y.abs().lt(L::splat(TWO_M62)), L::splat(0.0), y) * L::splat(TWO_M64)
+    y.zero_where(y.abs().lt(L::splat(TWO_M62))) * L::splat(TWO_M64)
 }
 
 /// 2^-62: heights below it are subnormal at 2^-64 scale.

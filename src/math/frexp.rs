@@ -31,7 +31,7 @@ pub(crate) fn frexp_bits<L: Lane>(x: L) -> (L, L) {
     let xs = L::select(tiny, ax.bits_as_int(), x);
     let e = xs.exponent_field() - L::select(tiny, L::splat(127.0 + 149.0), L::splat(127.0));
     let e = L::select(zero, L::splat(ZERO_EXPONENT), e);
-    let m = L::select(zero, L::splat(0.0), xs.with_unit_exponent_sign(x));
+    let m = xs.with_unit_exponent_sign(x).zero_where(zero);
     (m, e)
 }
 

@@ -88,6 +88,12 @@ pub trait Lane:
     fn keep(self, m: Self::Mask) -> Self {
         Self::select(m, self, Self::splat(0.0))
     }
+    /// `m ? +0 : self`, lane by lane: [`Lane::select`] with +0 first, the same bits (on
+    /// `wide` lanes one `andn` with the mask; see [`Lane::keep`]).
+    #[inline(always)]
+    fn zero_where(self, m: Self::Mask) -> Self {
+        Self::select(m, Self::splat(0.0), self)
+    }
     /// True if any lane of the mask is set.
     fn any(m: Self::Mask) -> bool;
 
@@ -520,6 +526,10 @@ macro_rules! impl_lane_wide {
                     self & m
                 }
                 #[inline(always)]
+                fn zero_where(self, m: Self) -> Self {
+                    self & !m
+                }
+                #[inline(always)]
                 fn any(m: Self) -> bool {
                     m.any()
                 }
@@ -839,8 +849,9 @@ mod tests {
     use super::Lane;
     use wide::{f32x16, f32x8};
 
-    /// `keep` gives `select`'s bits with +0 on every lane type with a `wide` mask (its own
-    /// implementation there), for masks from compares, NaN and signed zeros included.
+    /// `keep` and `zero_where` give `select`'s bits with +0 on every lane type with a
+    /// `wide` mask (their own implementation there), for masks from compares, NaN and
+    /// signed zeros included.
     #[test]
     fn keep_is_select_with_zero() {
         let vals = [
@@ -861,6 +872,11 @@ mod tests {
             for m in [v.abs().ge(lim), v.lt(lim), v.eq(v)] {
                 v.keep(m).store(out);
                 L::select(m, v, L::splat(0.0)).store(out2);
+                for (a, b) in out.iter().zip(out2.iter()) {
+                    assert_eq!(a.to_bits(), b.to_bits());
+                }
+                v.zero_where(m).store(out);
+                L::select(m, L::splat(0.0), v).store(out2);
                 for (a, b) in out.iter().zip(out2.iter()) {
                     assert_eq!(a.to_bits(), b.to_bits());
                 }

@@ -58,7 +58,7 @@ pub fn ldexp_no_subnormal<L: Lane>(m: L, e: L) -> L {
     let z = m.abs() * L::pow2i(k);
     let tiny = z.lt(L::splat(TWO23));
     let sub = (z + L::splat(TWO23)).and_bits(0x00ff_ffff).copysign(m);
-    let normal = ldexp(m, L::select(tiny, L::splat(0.0), e));
+    let normal = ldexp(m, e.zero_where(tiny));
     L::select(tiny, sub, normal)
 }
 

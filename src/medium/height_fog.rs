@@ -559,7 +559,7 @@ pub(crate) fn depth_args_tame_wide<L: Lane, const UNIT: bool>(
     let shift = L::select(small, L::splat(-M_SHIFT_EXP), L::splat(M_SHIFT_EXP));
     // (m > 0 on every other lane accepted.)
     let args = DepthArgs {
-        m: L::select(zero, L::splat(0.0), L::select(scaled, m * scale, m)),
+        m: L::select(scaled, m * scale, m).zero_where(zero),
         e: L::select(scaled, norm.1 + shift, args.e),
         ..args
     };
