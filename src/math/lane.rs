@@ -81,7 +81,8 @@ pub trait Lane:
     fn ne(self, b: Self) -> Self::Mask;
     /// `m ? a : b`, lane by lane.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
-    /// `m ? self : +0`, lane by lane: [`Lane::select`] with +0, the same bits (on `wide`
+    /// `m ? self : +0`, lane by lane: [`Lane::select`] with +0, the same bits for a mask
+    /// from this trait's compares, whose lanes have all bits set or clear (on `wide`
     /// lanes one `and` with the mask, where LLVM made the blend with zero a compare of
     /// the mask's sign and an `and`).
     #[inline(always)]
