@@ -850,9 +850,10 @@ mod tests {
     use super::Lane;
     use wide::{f32x16, f32x8};
 
-    /// `keep` and `zero_where` give `select`'s bits with +0 on every lane type with a
-    /// `wide` mask (their own implementation there), for masks from compares, NaN and
-    /// signed zeros included.
+    /// `keep` and `zero_where` against a plain per-lane oracle (`if c { v } else { +0 }`
+    /// and the reverse, with the condition c formed in scalar f32): the same bits on
+    /// every lane type with a `wide` mask (their own implementation there) and the
+    /// scalar one, for masks from compares, NaN and signed zeros included.
     #[test]
     fn keep_is_select_with_zero() {
         let vals = [
@@ -869,32 +870,38 @@ mod tests {
             -f32::NAN,
             3e-31,
         ];
-        fn check<L: Lane>(v: L, lim: L, out: &mut [f32], out2: &mut [f32]) {
-            for m in [v.abs().ge(lim), v.lt(lim), v.eq(v)] {
-                v.keep(m).store(out);
-                L::select(m, v, L::splat(0.0)).store(out2);
-                for (a, b) in out.iter().zip(out2.iter()) {
-                    assert_eq!(a.to_bits(), b.to_bits());
-                }
-                v.zero_where(m).store(out);
-                L::select(m, L::splat(0.0), v).store(out2);
-                for (a, b) in out.iter().zip(out2.iter()) {
-                    assert_eq!(a.to_bits(), b.to_bits());
+        // The three compares, lane by lane and in scalar f32.
+        #[allow(clippy::eq_op)]
+        fn masks<L: Lane>(v: L, lim: L) -> [L::Mask; 3] {
+            [v.abs().ge(lim), v.lt(lim), v.eq(v)]
+        }
+        fn conds(v: f32, lim: f32) -> [bool; 3] {
+            [v.abs() >= lim, v < lim, !v.is_nan()]
+        }
+        fn check<L: Lane>(lanes: &[f32], lim: f32) {
+            let v = L::load(lanes);
+            let mut out = [0.0f32; 16];
+            for (k, m) in masks(v, L::splat(lim)).into_iter().enumerate() {
+                for keep in [true, false] {
+                    let r = if keep { v.keep(m) } else { v.zero_where(m) };
+                    r.store(&mut out[..L::LANES]);
+                    for (i, &x) in lanes[..L::LANES].iter().enumerate() {
+                        let want = if conds(x, lim)[k] == keep { x } else { 0.0 };
+                        assert_eq!(
+                            out[i].to_bits(),
+                            want.to_bits(),
+                            "keep={keep} compare {k}: {x} against {lim}"
+                        );
+                    }
                 }
             }
         }
-        let (mut a, mut b) = ([0.0f32; 16], [0.0f32; 16]);
         for &lim in &vals {
             for k in 0..vals.len() {
                 let lanes: [f32; 16] = core::array::from_fn(|i| vals[(i + k) % vals.len()]);
-                check(lanes[0], lim, &mut a[..1], &mut b[..1]);
-                check(
-                    f32x8::from(<[f32; 8]>::try_from(&lanes[..8]).unwrap()),
-                    f32x8::splat(lim),
-                    &mut a[..8],
-                    &mut b[..8],
-                );
-                check(f32x16::from(lanes), f32x16::splat(lim), &mut a, &mut b);
+                check::<f32>(&lanes, lim);
+                check::<f32x8>(&lanes, lim);
+                check::<f32x16>(&lanes, lim);
             }
         }
     }
