@@ -1867,16 +1867,41 @@ fn own_kernel_eye_far_above_the_fog() {
 /// A NaN depth gives NaN fog in the own kernel too, at every position of a packet and in
 /// a row's tail, and its neighbours stay finite (AVX-512 lanes turn a NaN y' into ±TINY;
 /// the NaN reaches the pixel through n·t), in the RGB and planar layouts, with linear,
-/// distance and reversed-Z depth.
+/// distance and reversed-Z depth. Also among sky pixels in rows looking up, whose
+/// blocks skip `exp2m1` (every y' at most −32: `pass::height::FLAT_Y`), where the NaN
+/// comes through fma(y', 0, −1).
 #[test]
 fn own_kernel_nan_depth_gives_nan_fog() {
     let (w, h) = (37, 3);
     let desc = typical_sunlit_layer();
     let scene = Scene::new(desc).unwrap();
-    let cam =
-        Camera::perspective(Vec3::new(0.0, 2.0, 0.0), Vec3::NEG_Z, Vec3::Y, 1.0, 2.0).unwrap();
-    let n = w * h;
     let nan_at = |i: usize| i.is_multiple_of(5) || i % w == w - 1;
+    let level = Vec3::NEG_Z;
+    // Rows 0 and 1 look up (the forward view 26.6° up, half the field of view 28.6°).
+    let up_view = Vec3::new(0.0, 0.5, -1.0).normalize();
+    // Upright (rows of constant b·u) and rolled (b·u varies along a row); AVX-512 lanes
+    // turn a NaN y' into ±TINY, so the 8-lane path is where a rolled row's NaN meets a
+    // block that skips `exp2m1`.
+    let rolled = Vec3::new(0.05, 1.0, 0.0);
+    for scene in [scene.clone(), scene.without_avx512_dispatch()] {
+        for up in [Vec3::Y, rolled] {
+            for (forward, other) in [(level, 0.5), (up_view, f32::INFINITY), (up_view, 1e30)] {
+                let cam =
+                    Camera::perspective(Vec3::new(0.0, 2.0, 0.0), forward, up, 1.0, 2.0).unwrap();
+                nan_depth_frame(&scene, &cam, (w, h), other, nan_at);
+            }
+        }
+    }
+}
+
+fn nan_depth_frame(
+    scene: &Scene,
+    cam: &Camera,
+    (w, h): (usize, usize),
+    other: f32,
+    nan_at: impl Fn(usize) -> bool,
+) {
+    let n = w * h;
     for conv in [
         DepthConvention::LinearView,
         DepthConvention::Distance,
@@ -1886,9 +1911,14 @@ fn own_kernel_nan_depth_gives_nan_fog() {
             reversed: true,
         },
     ] {
-        assert!(scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap());
+        assert!(scene.fog_pass_own_kernel(cam, w, h, conv).unwrap());
+        // (Reversed-Z: the sky at 0.)
+        let other = match conv {
+            DepthConvention::NdcZeroToOne { .. } if other > 1.0 => 0.0,
+            _ => other,
+        };
         let depth: Vec<f32> = (0..n)
-            .map(|i| if nan_at(i) { f32::NAN } else { 0.5 })
+            .map(|i| if nan_at(i) { f32::NAN } else { other })
             .collect();
         let d = Depth {
             values: &depth,
@@ -1896,12 +1926,12 @@ fn own_kernel_nan_depth_gives_nan_fog() {
         };
         let mut rgb = vec![0.25f32; 3 * n];
         scene
-            .fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut rgb))
+            .fog_pass(cam, w, h, d, ColourBuffer::Rgb(&mut rgb))
             .unwrap();
         let mut planes = [vec![0.25f32; n], vec![0.25; n], vec![0.25; n]];
         let [r, g, b] = &mut planes;
         scene
-            .fog_pass_single(&cam, w, h, d, ColourBuffer::Planar([r, g, b]))
+            .fog_pass_single(cam, w, h, d, ColourBuffer::Planar([r, g, b]))
             .unwrap();
         for i in 0..n {
             for c in 0..3 {

@@ -31,7 +31,7 @@ pub fn asinh<L: Lane>(x: L) -> L {
         let ac = a.min(L::splat(4096.0));
         let mid = L::splat(2.0) * ac + one / (ac.mul_add(ac, one).sqrt() + ac);
         let z = L::select(huge, a, mid);
-        let k = L::select(huge, one, L::splat(0.0));
+        let k = one.keep(huge);
         r = L::select(small, r, log_scaled(z, k));
     }
     // Restore the sign; NaN in, NaN out.

@@ -219,7 +219,7 @@ pub fn erfc<L: Lane>(x: L) -> L {
     let large = !small;
     if L::any(large) {
         let c = erfc_abs_large(a);
-        let c = L::select(a.ge(L::splat(28.0)), L::splat(0.0), c);
+        let c = c.zero_where(a.ge(L::splat(28.0)));
         let v = L::select(x.lt(L::splat(0.0)), L::splat(2.0) - c, c);
         r = L::select(small, r, v);
     }

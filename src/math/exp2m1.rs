@@ -85,4 +85,33 @@ mod tests {
             x = x.next_up();
         }
     }
+
+    /// −1 exactly for every f32 in [−64.5, −25.5) (k ≤ −26: 2^k − 1 rounds to −1 and
+    /// f·2^k·P(f) is below half its spacing), at 8 lanes and, with AVX-512, on `Zmm`
+    /// lanes: the pass's rows looking up skip `exp2m1` there (`pass::height::FLAT_Y`).
+    #[test]
+    fn minus_one_below_minus_25_5() {
+        let (lo, hi) = ((-25.5f32).to_bits() + 1, (-64.5f32).to_bits());
+        let xs: Vec<f32> = (lo..=hi).map(f32::from_bits).collect();
+        assert!(xs[0] < -25.5 && xs[xs.len() - 1] == -64.5);
+        for chunk in xs.chunks(16) {
+            let mut a = [-64.5f32; 16];
+            a[..chunk.len()].copy_from_slice(chunk);
+            let mut z = [0.0f32; 8];
+            for h in 0..2 {
+                exp2m1_in_range(<f32x8 as Lane>::load(&a[8 * h..])).store(&mut z);
+                assert!(z.iter().all(|&z| z == -1.0), "{:?}: {z:?}", &a[8 * h..]);
+            }
+            #[cfg(any(zmm_dispatch, zmm_native))]
+            if crate::math::avx512_detected() {
+                use crate::math::zmm::Zmm;
+                let mut z = [0.0f32; 16];
+                exp2m1_in_range(Zmm::load(&a)).store(&mut z);
+                assert!(z.iter().all(|&z| z == -1.0), "{a:?}: {z:?}");
+            }
+        }
+        assert_eq!(exp2m1_in_range((-25.5f32).next_down()), -1.0);
+        // A check that can fail: 2^-24 − 1 is an f32 above −1.
+        assert!(exp2m1_in_range(f32x8::splat(-24.0)).to_array()[0] > -1.0);
+    }
 }

@@ -44,7 +44,7 @@ pub fn expm1<L: Lane>(x: L) -> L {
     let (k, r) = reduce_ln2(x);
     let p = (r * r).mul_add(q5(r), r);
     let up = k.gt(L::splat(0.0));
-    let s = L::pow2i(k - L::select(up, L::splat(1.0), L::splat(0.0)));
+    let s = L::pow2i(k - L::splat(1.0).keep(up));
     let h = L::select(up, L::splat(0.5), L::splat(1.0));
     s.mul_add(p, s - h) * L::select(up, L::splat(2.0), L::splat(1.0))
 }

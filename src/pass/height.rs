@@ -584,6 +584,16 @@ impl RowFactor {
     }
 }
 
+/// A block whose y' are all at most this skips `exp2m1`: mostly the sky looking up the
+/// fog (rays clamped to t_hi in a row of constant b2·u < 0, y' = −63; to T_BIG
+/// elsewhere). For y' < −25.5, k = round(y') ≤ −26, 2^k − 1 rounds to −1 and f·2^k·P(f)
+/// (below 2^(k−1)·0.7 in magnitude) leaves it there, so [`exp2m1_in_range`] gives −1
+/// exactly (every f32 in [−64.5, −25.5) checked by the test
+/// `exp2m1::tests::minus_one_below_minus_25_5`), and [`exp2m1`] too (it clamps y' to
+/// −64 first). One `maxps` per packet (and a compare per block, but in rows of constant
+/// b2·u ≥ 0), about 11 operations fewer per packet in the blocks that qualify.
+const FLAT_Y: f32 = -32.0;
+
 /// The largest |b2·u| of a row that takes [`RowFactor`] (2³⁰).
 const UNI_HI: f32 = 1_073_741_824.0;
 
@@ -1076,7 +1086,10 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     let rgb3 = R::RGB3 && PH < 2;
     // Every packet of the block is full (all blocks but a row's padded tail).
     let full_block = last_n == n_lanes;
-    // 1. Geometry: y' = −Δ·log2(e) (away from 0), n·t, and 1/|d| for stage 1b.
+    // 1. Geometry: y' = −Δ·log2(e) (away from 0), n·t, and 1/|d| for stage 1b; and the
+    // block's largest y' (see `FLAT_Y`; not looked at in rows of constant b2·u ≥ 0).
+    let flat_test = !rf.on || rf.b2u < 0.0;
+    let mut y_max = W::splat(f32::NEG_INFINITY);
     let mut x = x_start;
     for ((((dv, y), g), p), cw) in depth
         .chunks_exact(n_lanes)
@@ -1093,6 +1106,9 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
         let d = direction(plan, rp, W::load(&us[x..]));
         x += n_lanes;
         let (yv, nt, inv_n) = geometry(hp, rf, d, W::load(dv));
+        // (`Lane::max` is maxps: a NaN y', the first operand, is passed over; its lane's
+        // g' stays NaN below either way.)
+        y_max = Lane::max(yv, y_max);
         *y = yv;
         *g = nt;
         if PH == 1 {
@@ -1133,12 +1149,15 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     let clamp_g = hp.clamp_g;
     let (floor_g, g_lo) = (hp.g_lo > 0.0, W::splat(hp.g_lo));
     let uni = rf.on;
-    for ((g, g3), &y) in gs.iter_mut().zip(gs3.iter_mut()).zip(ys.iter()) {
-        let gv = if uni {
-            exp2m1_in_range(y) * *g
-        } else {
-            W::quotient(exp2m1(y), y) * *g
-        };
+    // Every y' of the block at most `FLAT_Y`: exp2m1(y') is −1 there, taken as
+    // fma(y', 0, −1) in rows of constant b·u (−1 for finite y', NaN for a NaN depth's
+    // y': the same bits) and as −1 in the quotient by y' elsewhere.
+    let flat = flat_test && !W::any(y_max.gt(W::splat(FLAT_Y)));
+    let minus_one = W::splat(-1.0);
+    // g' floored, clamped and stored.
+    #[inline(always)]
+    fn put<W: PassLane>(gv: W, g: &mut W, g3: &mut [W; 3], lim: (bool, W, bool, bool)) {
+        let (floor_g, g_lo, clamp_g, three) = lim;
         // (`Lane::max`: NaN, the second operand, stays NaN.)
         let gv = if floor_g { Lane::max(g_lo, gv) } else { gv };
         let gv = if clamp_g {
@@ -1146,10 +1165,37 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
         } else {
             gv
         };
-        if rgb3 && !GREY && full_block {
+        if three {
             *g3 = gv.expand3();
         } else {
             *g = gv;
+        }
+    }
+    let lim = (floor_g, g_lo, clamp_g, rgb3 && !GREY && full_block);
+    // One loop per case (with the cases tested inside one loop, LLVM kept fewer of the
+    // third stage's constants in registers); loops, not closures (see `trans`).
+    let each = gs.iter_mut().zip(gs3.iter_mut()).zip(ys.iter());
+    match (uni, flat) {
+        (true, true) => {
+            for ((g, g3), &y) in each {
+                put(y.mul_add(zero, minus_one) * *g, g, g3, lim);
+            }
+        }
+        (true, false) => {
+            for ((g, g3), &y) in each {
+                put(exp2m1_in_range(y) * *g, g, g3, lim);
+            }
+        }
+        (false, true) => {
+            for ((g, g3), &y) in each {
+                // (A NaN y' on 8 lanes, passed over by `maxps`, gives a NaN quotient.)
+                put(W::quotient(minus_one, y) * *g, g, g3, lim);
+            }
+        }
+        (false, false) => {
+            for ((g, g3), &y) in each {
+                put(W::quotient(exp2m1(y), y) * *g, g, g3, lim);
+            }
         }
     }
     // 3. T = e^(−τ_c) = 2^(k2_c·g'), L_in = colour · (1 − T), L ← L·T + L_in.
