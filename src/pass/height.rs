@@ -590,7 +590,7 @@ impl RowFactor {
 /// (below 2^(k−1)·0.7 in magnitude) leaves it there, so [`exp2m1_in_range`] gives −1
 /// exactly (every f32 in [−64.5, −25.5) checked by the test
 /// `exp2m1::tests::minus_one_below_minus_25_5`), and [`exp2m1`] too (it clamps y' to
-/// −64 first). One `maxps` per packet (and a compare per block, but in rows of constant
+/// −64 first). One `maxps` per packet (and a compare per block, except in rows of constant
 /// b2·u ≥ 0), about 11 operations fewer per packet in the blocks that qualify.
 const FLAT_Y: f32 = -32.0;
 
@@ -1087,7 +1087,8 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     // Every packet of the block is full (all blocks but a row's padded tail).
     let full_block = last_n == n_lanes;
     // 1. Geometry: y' = −Δ·log2(e) (away from 0), n·t, and 1/|d| for stage 1b; and the
-    // block's largest y' (see `FLAT_Y`; not looked at in rows of constant b2·u ≥ 0).
+    // block's largest y' (see `FLAT_Y`), one `maxps` per packet with no branch in every
+    // row, though rows of constant b2·u ≥ 0 do not look at it.
     let flat_test = !rf.on || rf.b2u < 0.0;
     let mut y_max = W::splat(f32::NEG_INFINITY);
     let mut x = x_start;
