@@ -1869,7 +1869,8 @@ fn own_kernel_eye_far_above_the_fog() {
 /// the NaN reaches the pixel through n·t), in the RGB and planar layouts, with linear,
 /// distance and reversed-Z depth. Also among sky pixels in rows looking up, whose
 /// blocks skip `exp2m1` (every y' at most −32: `pass::height::FLAT_Y`), where the NaN
-/// comes through fma(y', 0, −1).
+/// comes through fma(y', 0, −1) in rows of constant b·u and through the quotient by y'
+/// in rolled rows.
 #[test]
 fn own_kernel_nan_depth_gives_nan_fog() {
     let (w, h) = (37, 3);
@@ -1877,7 +1878,7 @@ fn own_kernel_nan_depth_gives_nan_fog() {
     let scene = Scene::new(desc).unwrap();
     let nan_at = |i: usize| i.is_multiple_of(5) || i % w == w - 1;
     let level = Vec3::NEG_Z;
-    // Rows 0 and 1 look up (the forward view 26.6° up, half the field of view 28.6°).
+    // Every row looks up: the forward view 26.6° up, the rows' centres within 20° of it.
     let up_view = Vec3::new(0.0, 0.5, -1.0).normalize();
     // Upright (rows of constant b·u) and rolled (b·u varies along a row); AVX-512 lanes
     // turn a NaN y' into ±TINY, so the 8-lane path is where a rolled row's NaN meets a
@@ -1894,6 +1895,9 @@ fn own_kernel_nan_depth_gives_nan_fog() {
     }
 }
 
+/// One frame of `own_kernel_nan_depth_gives_nan_fog`: NaN at `nan_at`, `other`
+/// elsewhere (the sky at 0 for reversed-Z where `other` is beyond 1), in each depth
+/// convention, fogged by the parallel and the single-threaded pass.
 fn nan_depth_frame(
     scene: &Scene,
     cam: &Camera,
