@@ -1091,40 +1091,57 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     // row, though rows of constant b2·u ≥ 0 do not look at it.
     let flat_test = !rf.on || rf.b2u < 0.0;
     let mut y_max = W::splat(f32::NEG_INFINITY);
-    let mut x = x_start;
-    for ((((dv, y), g), p), cw) in depth
-        .chunks_exact(n_lanes)
-        .zip(ys.iter_mut())
-        .zip(gs.iter_mut())
-        .zip(ps.iter_mut())
-        .zip(colours.iter_mut())
-    {
-        // The colour the third stage reads and writes, asked for now (in the full frame
-        // that stage otherwise waited on it: README "Intel Xeon, forty-fourth session").
-        out.prefetch(x, n_lanes);
-        // And the depth of the next block (the next row's where this is the row's last).
-        super::prefetch_read(dv.as_ptr().wrapping_add(BLOCK * n_lanes));
-        let d = direction(plan, rp, W::load(&us[x..]));
-        x += n_lanes;
-        let (yv, nt, inv_n) = geometry(hp, rf, d, W::load(dv));
-        // (`Lane::max` is maxps: a NaN y', the first operand, is passed over; its lane's
-        // g' stays NaN below either way.)
-        y_max = Lane::max(yv, y_max);
-        *y = yv;
-        *g = nt;
-        if PH == 1 {
-            // The phase function's view-dependent inputs for the phase loop below, in
-            // the buffers it then overwrites (`colours` is otherwise unused with one
-            // phase function).
-            let (w, c) = hp.phases[0].prepare(d, inv_n, hp.beta);
-            *cw = w;
-            if hp.beta {
-                *p = c;
+    // One loop per common case (a row of constant b·u or not, with linear view depth),
+    // the others in one: with the row's and the frame's choices tested inside, LLVM kept
+    // them as branches in every packet (the up axis tested even where the row does not
+    // use it).
+    let cols = &us[x_start..x_start + m * n_lanes];
+    macro_rules! geometry_loop {
+        ($uni:expr, $depth:expr) => {{
+            let mut x = x_start;
+            for (((((dv, uv), y), g), p), cw) in depth
+                .chunks_exact(n_lanes)
+                .zip(cols.chunks_exact(n_lanes))
+                .zip(ys.iter_mut())
+                .zip(gs.iter_mut())
+                .zip(ps.iter_mut())
+                .zip(colours.iter_mut())
+            {
+                // The colour the third stage reads and writes, asked for now (in the full
+                // frame that stage otherwise waited on it: README "Intel Xeon, forty-fourth
+                // session").
+                out.prefetch(x, n_lanes);
+                // And the depth of the next block (the next row's where this is the row's
+                // last).
+                super::prefetch_read(dv.as_ptr().wrapping_add(BLOCK * n_lanes));
+                let d = direction(plan, rp, W::load(uv));
+                x += n_lanes;
+                let (yv, nt, inv_n) = geometry(hp, rf, d, W::load(dv), $uni, $depth);
+                // (`Lane::max` is maxps: a NaN y', the first operand, is passed over; its
+                // lane's g' stays NaN below either way.)
+                y_max = Lane::max(yv, y_max);
+                *y = yv;
+                *g = nt;
+                if PH == 1 {
+                    // The phase function's view-dependent inputs for the phase loop below,
+                    // in the buffers it then overwrites (`colours` is otherwise unused with
+                    // one phase function).
+                    let (w, c) = hp.phases[0].prepare(d, inv_n, hp.beta);
+                    *cw = w;
+                    if hp.beta {
+                        *p = c;
+                    }
+                } else if PH > 1 {
+                    // 1/|d| for the phase loop below (which then overwrites it).
+                    *p = inv_n;
+                }
             }
-        } else if PH > 1 {
-            // 1/|d| for the phase loop below (which then overwrites it).
-            *p = inv_n;
-        }
+        }};
+    }
+    match (rf.on, hp.depth) {
+        (true, LINEAR) => geometry_loop!(true, LINEAR),
+        (false, LINEAR) => geometry_loop!(false, LINEAR),
+        (uni, kind) => geometry_loop!(uni, kind),
     }
     // 1b. The phase value or fog colour, in a loop of its own (see `row`).
     if PH > 0 {
@@ -1172,32 +1189,45 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
             *g = gv;
         }
     }
-    let lim = (floor_g, g_lo, clamp_g, rgb3 && !GREY && full_block);
+    let three = rgb3 && !GREY && full_block;
     // One loop per case (with the cases tested inside one loop, LLVM kept fewer of the
-    // third stage's constants in registers); loops, not closures (see `trans`).
-    let each = gs.iter_mut().zip(gs3.iter_mut()).zip(ys.iter());
-    match (uni, flat) {
-        (true, true) => {
-            for ((g, g3), &y) in each {
-                put(y.mul_add(zero, minus_one) * *g, g, g3, lim);
+    // third stage's constants in registers); loops, not closures (see `trans`). The
+    // common case (no floor, no clamp, full interleaved packets) has its own copies, its
+    // choices literals: LLVM tested them in every packet.
+    macro_rules! g_loops {
+        ($lim:expr) => {{
+            let lim = $lim;
+            let each = gs.iter_mut().zip(gs3.iter_mut()).zip(ys.iter());
+            match (uni, flat) {
+                (true, true) => {
+                    for ((g, g3), &y) in each {
+                        put(y.mul_add(zero, minus_one) * *g, g, g3, lim);
+                    }
+                }
+                (true, false) => {
+                    for ((g, g3), &y) in each {
+                        put(exp2m1_in_range(y) * *g, g, g3, lim);
+                    }
+                }
+                (false, true) => {
+                    for ((g, g3), &y) in each {
+                        // (A NaN y' on 8 lanes, passed over by `maxps`, gives a NaN
+                        // quotient.)
+                        put(W::quotient(minus_one, y) * *g, g, g3, lim);
+                    }
+                }
+                (false, false) => {
+                    for ((g, g3), &y) in each {
+                        put(W::quotient(exp2m1(y), y) * *g, g, g3, lim);
+                    }
+                }
             }
-        }
-        (true, false) => {
-            for ((g, g3), &y) in each {
-                put(exp2m1_in_range(y) * *g, g, g3, lim);
-            }
-        }
-        (false, true) => {
-            for ((g, g3), &y) in each {
-                // (A NaN y' on 8 lanes, passed over by `maxps`, gives a NaN quotient.)
-                put(W::quotient(minus_one, y) * *g, g, g3, lim);
-            }
-        }
-        (false, false) => {
-            for ((g, g3), &y) in each {
-                put(W::quotient(exp2m1(y), y) * *g, g, g3, lim);
-            }
-        }
+        }};
+    }
+    if !floor_g && !clamp_g && three {
+        g_loops!((false, g_lo, false, true))
+    } else {
+        g_loops!((floor_g, g_lo, clamp_g, three))
     }
     // 3. T = e^(−τ_c) = 2^(k2_c·g'), L_in = colour · (1 − T), L ← L·T + L_in.
     let mut x0 = x_start;
@@ -1299,19 +1329,21 @@ fn in_scattered<W: PassLane>(c: W, t: W) -> W {
 
 /// For the rays from the eye along `d` (any length) to depth values `depth`: y' = −Δ·log2(e)
 /// = b2·u·t kept away from 0 (E(Δ) = 1 below 2^-60), n·t, and 1/n; in a row that takes
-/// [`RowFactor`], y' = (b2·u)·t with t ≥ t_lo, n·c, and 1/n.
+/// [`RowFactor`] (`uni`: `rf.on`), y' = (b2·u)·t with t ≥ t_lo, n·c, and 1/n. `uni` and
+/// `depth_kind` (`hp.depth`) are arguments so that a loop can pass them as literals.
 #[inline(always)]
-fn geometry<W: PassLane>(hp: &HeightPass, rf: &RowFactor, d: [W; 3], depth: W) -> (W, W, W) {
+fn geometry<W: PassLane>(
+    hp: &HeightPass,
+    rf: &RowFactor,
+    d: [W; 3],
+    depth: W,
+    uni: bool,
+    depth_kind: usize,
+) -> (W, W, W) {
     let n2 = d[0].mul_add(d[0], d[1].mul_add(d[1], d[2] * d[2]));
     let inv_n = rsqrt(n2);
     let n = n2 * inv_n;
-    let u = match hp.axis {
-        0 => d[0],
-        1 => d[1],
-        2 => d[2],
-        _ => crate::light::dot3(d, hp.up),
-    };
-    let t = match hp.depth {
+    let t = match depth_kind {
         LINEAR => depth,
         // Raised first, so that the product is not formed subnormal (`HeightPass::d_lo`;
         // `Lane::max`: NaN stays NaN).
@@ -1326,10 +1358,16 @@ fn geometry<W: PassLane>(hp: &HeightPass, rf: &RowFactor, d: [W; 3], depth: W) -
     // Negative and short depths to T_LO (`Lane::max` is maxps: NaN, the second operand,
     // stays NaN); rays clamped to the frame's T_BIG (`Lane::min`: NaN stays NaN). Not
     // wide's `min`/`max`, which return the other operand for NaN.
-    if rf.on {
+    if uni {
         let t = Lane::min(W::splat(rf.t_hi), Lane::max(W::splat(rf.t_lo), t));
         return (W::splat(rf.b2u) * t, n * W::splat(rf.c), inv_n);
     }
+    let u = match hp.axis {
+        0 => d[0],
+        1 => d[1],
+        2 => d[2],
+        _ => crate::light::dot3(d, hp.up),
+    };
     let t = Lane::min(W::splat(hp.t_big), Lane::max(W::splat(hp.t_lo), t));
     let y = (W::splat(hp.b2) * u) * t;
     let y = W::away_from_zero(y);
