@@ -94,8 +94,10 @@ pub fn exp2_nonpos_table<L: Lane>(y: L) -> L {
 pub fn exp2_nonpos_table_mul<L: Lane>(k: L, g: L) -> L {
     let t = k.mul_add(g, L::splat(ROUND16));
     let m16 = t - L::splat(ROUND16);
-    // r' = m/16 − k·g = −r.
-    let rn = k.neg_mul_add(g, m16);
+    // r' = m/16 − k·g = −r. (g negated, not k: LLVM hoists the negation of a
+    // loop-invariant k out of the pass's loops and holds −k in three more registers,
+    // where g's folds into `vfnmadd`.)
+    let rn = g.neg_mul_add(k, m16);
     let tab = t.lookup16(&TABLE);
     let p = rn
         .mul_add(L::splat(0.055_505_086), L::splat(-0.240_233_56))
