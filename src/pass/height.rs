@@ -303,6 +303,14 @@ pub(crate) trait PassLane: Lane {
     /// Per-channel constants laid out as an interleaved RGB buffer: `c0 c1 c2 c0 c1 …`
     /// over three vectors.
     fn interleaved3(c: [f32; 3]) -> [Self; 3];
+    /// Whether the third stage of an interleaved RGB row expands g' and the phase value
+    /// itself ([`PassLane::expand3`] in its loop), instead of reading them expanded from
+    /// the buffers that stage 2 and the phase loop fill: four stores and four loads per
+    /// packet fewer. True where the lanes are AVX-512's (32 registers: the frame 1.04×
+    /// as fast on Zen 4); with AVX2's 16 the expansion's permutations and their indices
+    /// in that loop made the `NO512=1` frame 1.03× slower (README "Zen 4, fifty-fifth
+    /// session").
+    const EXPAND_IN_THIRD: bool = cfg!(target_feature = "avx512f");
 }
 
 impl PassLane for f32x8 {
@@ -409,6 +417,7 @@ impl PassLane for f32x16 {
 /// AVX-512's `vrsqrt14ps` (see [`PassLane`]), so not the same last bits.
 #[cfg(any(zmm_dispatch, zmm_native))]
 impl PassLane for crate::math::zmm::Zmm {
+    const EXPAND_IN_THIRD: bool = true;
     #[inline(always)]
     fn lane_x() -> Self {
         Self::from_array(core::array::from_fn(|k| k as f32))
@@ -943,10 +952,9 @@ const LERP_COLOUR_MAX: f64 = 1.267_650_600_228_229_4e30;
 ///
 /// An interleaved RGB row with at most one phase function takes the third stage in the
 /// buffer's own layout: g (and the phase value) expanded to three lanes per packet
-/// (`expand3`, in that stage's loop), the channel constants laid out likewise, so that the
-/// colour moves as three whole lanes with no (de)interleaving; the same operations per
-/// element, so the same bits as the per-channel path, which the other layouts and the
-/// row's tail take.
+/// (`expand3`), the channel constants laid out likewise, so that the colour moves as three
+/// whole lanes with no (de)interleaving; the same operations per element, so the same bits
+/// as the per-channel path, which the other layouts and the row's tail take.
 #[inline(always)]
 fn row<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const FAST: bool>(
     hp: &HeightPass,
@@ -990,6 +998,13 @@ struct Buffers<W> {
     ps: [W; BLOCK],
     /// More phase functions: the fog colour; else unused.
     colours: [[W; 3]; BLOCK],
+    /// An interleaved RGB row, unless [`PassLane::EXPAND_IN_THIRD`]: g and the phase
+    /// value expanded to the buffer's layout ([`PassLane::expand3`]) where they are
+    /// computed, in a register; expanded from the buffers in the third stage, LLVM built
+    /// each lane from partial loads, shuffles and blends (about 10 instructions instead
+    /// of 3 permutations).
+    gs3: [[W; 3]; BLOCK],
+    ps3: [[W; 3]; BLOCK],
 }
 
 impl<W: PassLane> Buffers<W> {
@@ -1009,6 +1024,8 @@ impl<W: PassLane> Buffers<W> {
             gs: [zero; BLOCK],
             ps: [zero; BLOCK],
             colours: [[zero; 3]; BLOCK],
+            gs3: [[zero; 3]; BLOCK],
+            ps3: [[zero; 3]; BLOCK],
         }
     }
 }
@@ -1065,8 +1082,11 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
         gs,
         ps,
         colours,
+        gs3,
+        ps3,
     } = bufs;
     let (ys, gs, ps, colours) = (&mut ys[..m], &mut gs[..m], &mut ps[..m], &mut colours[..m]);
+    let (gs3, ps3) = (&mut gs3[..m], &mut ps3[..m]);
     // Copies, so that the third stage keeps them in registers: read through the buffers'
     // reference, they were loaded again for every packet in the x86-64-v4 build (whose
     // `Buffers::new` is inlined).
@@ -1136,9 +1156,16 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     // 1b. The phase value or fog colour, in a loop of its own (see `row`).
     if PH > 0 {
         let mut x = x_start;
-        for (p, c) in ps.iter_mut().zip(colours.iter_mut()) {
+        for ((p, c), p3) in ps.iter_mut().zip(colours.iter_mut()).zip(ps3.iter_mut()) {
             if PH == 1 {
-                *p = hp.phases[0].finish(*c, *p, hp.beta);
+                let pv = hp.phases[0].finish(*c, *p, hp.beta);
+                // A full block of an interleaved RGB row reads only the expanded value
+                // (where the third stage does not expand it itself).
+                if rgb3 && full_block && !W::EXPAND_IN_THIRD {
+                    *p3 = pv.expand3();
+                } else {
+                    *p = pv;
+                }
             } else {
                 let d = direction(plan, rp, W::load(&us[x..]));
                 *c = colour(hp, d, *p);
@@ -1158,53 +1185,79 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     let minus_one = W::splat(-1.0);
     // g' floored, clamped and stored.
     #[inline(always)]
-    fn put<W: PassLane>(gv: W, g: &mut W, lim: (bool, W, bool)) {
-        let (floor_g, g_lo, clamp_g) = lim;
+    fn put<W: PassLane>(gv: W, g: &mut W, g3: &mut [W; 3], lim: (bool, W, bool, bool)) {
+        let (floor_g, g_lo, clamp_g, three) = lim;
         // (`Lane::max`: NaN, the second operand, stays NaN.)
         let gv = if floor_g { Lane::max(g_lo, gv) } else { gv };
-        *g = if clamp_g {
+        let gv = if clamp_g {
             Lane::min(W::splat(f32::MAX), gv)
         } else {
             gv
         };
+        if three {
+            *g3 = gv.expand3();
+        } else {
+            *g = gv;
+        }
     }
-    let lim = (floor_g, g_lo, clamp_g);
+    let three = rgb3 && !GREY && full_block && !W::EXPAND_IN_THIRD;
     // One loop per case (with the cases tested inside one loop, LLVM kept fewer of the
-    // third stage's constants in registers); loops, not closures (see `trans`).
-    let each = gs.iter_mut().zip(ys.iter());
-    match (uni, flat) {
-        (true, true) => {
-            for (g, &y) in each {
-                put(y.mul_add(zero, minus_one) * *g, g, lim);
+    // third stage's constants in registers); loops, not closures (see `trans`). The
+    // common case (no floor, no clamp, full interleaved packets) has its own copies, its
+    // choices literals: LLVM tested them in every packet.
+    macro_rules! g_loops {
+        ($lim:expr) => {{
+            let lim = $lim;
+            let each = gs.iter_mut().zip(gs3.iter_mut()).zip(ys.iter());
+            match (uni, flat) {
+                (true, true) => {
+                    for ((g, g3), &y) in each {
+                        put(y.mul_add(zero, minus_one) * *g, g, g3, lim);
+                    }
+                }
+                (true, false) => {
+                    for ((g, g3), &y) in each {
+                        put(exp2m1_in_range(y) * *g, g, g3, lim);
+                    }
+                }
+                (false, true) => {
+                    for ((g, g3), &y) in each {
+                        // (A NaN y' on 8 lanes, passed over by `maxps`, gives a NaN
+                        // quotient.)
+                        put(W::quotient(minus_one, y) * *g, g, g3, lim);
+                    }
+                }
+                (false, false) => {
+                    for ((g, g3), &y) in each {
+                        put(W::quotient(exp2m1(y), y) * *g, g, g3, lim);
+                    }
+                }
             }
-        }
-        (true, false) => {
-            for (g, &y) in each {
-                put(exp2m1_in_range(y) * *g, g, lim);
-            }
-        }
-        (false, true) => {
-            for (g, &y) in each {
-                // (A NaN y' on 8 lanes, passed over by `maxps`, gives a NaN quotient.)
-                put(W::quotient(minus_one, y) * *g, g, lim);
-            }
-        }
-        (false, false) => {
-            for (g, &y) in each {
-                put(W::quotient(exp2m1(y), y) * *g, g, lim);
-            }
-        }
+        }};
+    }
+    if !floor_g && !clamp_g && three {
+        g_loops!((false, g_lo, false, true))
+    } else {
+        g_loops!((floor_g, g_lo, clamp_g, three))
     }
     // 3. T = e^(−τ_c) = 2^(k2_c·g'), L_in = colour · (1 − T), L ← L·T + L_in.
     let mut x0 = x_start;
-    for (k, ((&g, &p), c)) in gs.iter().zip(ps.iter()).zip(colours.iter()).enumerate() {
+    for (k, (((&g, &p), c), (g3, p3))) in gs
+        .iter()
+        .zip(ps.iter())
+        .zip(colours.iter())
+        .zip(gs3.iter().zip(ps3.iter()))
+        .enumerate()
+    {
         let n = if k + 1 == m { last_n } else { n_lanes };
         if rgb3 && full_block {
-            // g' and the phase value expanded here, three permutations each, where they
-            // were stored expanded by stage 2 and the phase loop: four stores and four
-            // loads per packet fewer (README "Zen 4, fifty-fifth session").
-            let g3 = &g.expand3();
-            let p3 = &p.expand3();
+            let (eg, ep);
+            let (g3, p3) = if W::EXPAND_IN_THIRD {
+                (eg, ep) = (g.expand3(), p.expand3());
+                (&eg, &ep)
+            } else {
+                (g3, p3)
+            };
             let t = if GREY {
                 trans(W::splat(kk[0]), g).expand3()
             } else {
