@@ -306,9 +306,10 @@ pub(crate) trait PassLane: Lane {
     /// Whether the third stage of an interleaved RGB row expands g' and the phase value
     /// itself ([`PassLane::expand3`] in its loop), instead of reading them expanded from
     /// the buffers that stage 2 and the phase loop fill: four stores and four loads per
-    /// packet fewer. True where the lanes are AVX-512's (32 registers: the frame 1.04×
-    /// as fast on Zen 4); with AVX2's 16 the expansion's permutations and their indices
-    /// in that loop made the `NO512=1` frame 1.03× slower (README "Zen 4, fifty-fifth
+    /// packet fewer. True where the lanes are AVX-512's (32 registers; with the three
+    /// that `exp2_nonpos_table_mul`'s −k held freed too, the 1920×16 frame took 0.95× the
+    /// time on Zen 4); with AVX2's 16 the expansion's permutations and their indices in
+    /// that loop made the `NO512=1` frame 1.03× slower (README "Zen 4, fifty-fifth
     /// session").
     const EXPAND_IN_THIRD: bool = cfg!(target_feature = "avx512f");
 }
@@ -1202,9 +1203,10 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     }
     let three = rgb3 && !GREY && full_block && !W::EXPAND_IN_THIRD;
     // One loop per case (with the cases tested inside one loop, LLVM kept fewer of the
-    // third stage's constants in registers); loops, not closures (see `trans`). The
-    // common case (no floor, no clamp, full interleaved packets) has its own copies, its
-    // choices literals: LLVM tested them in every packet.
+    // third stage's constants in registers); loops, not closures (see `trans`). Where g'
+    // is stored expanded (AVX2 lanes), the common case (no floor, no clamp, full
+    // interleaved packets) has its own copies, its choices literals: LLVM tested them in
+    // every packet.
     macro_rules! g_loops {
         ($lim:expr) => {{
             let lim = $lim;
