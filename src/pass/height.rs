@@ -159,6 +159,36 @@ impl PhaseTerm {
         (1.0 + f64::from(self.beta_rel)) * f64::from(self.base).powf(-1.5)
     }
 
+    /// A bound on the relative error of p/α where q is formed from cos θ instead of
+    /// |v + w|² ([`LinearRow`], `HeightPass::phase_linear`), for a frame whose row
+    /// directions are d = rd + u·d_u with |d_u·rd| ≤ η·|d_u|·|rd| (η < 1/2): q = q0 +
+    /// 2gg·dot(d, w)/n with q0 = base + gg·(1 + |w|²), a sum that cancels toward the
+    /// peak, where q = base, where |v + w|² has no cancellation. Absolute error of q (ε =
+    /// 2⁻²⁴): the linear form of dot(d, w) (its two coefficients and the fused
+    /// multiply-add rounded once each, and the pass's direction itself, whose components
+    /// the batch API rounds) ε·G·(κ/2 + 1) with G = 2gg·|w| and κ = √(2/(1 − η)) bounding
+    /// (|u·d_u| + |rd|)/n; 1/n's relative error (6ε on AVX2 lanes with the quadratic's
+    /// condition (1 + η)/(1 − η), 3ε on AVX-512 ones; the AVX2 figure is used) times G;
+    /// q0's rounding ε/2·q0; the last fused multiply-add's ε/2·q. Relative, at the peak
+    /// (q ≥ base): e_q = (that)/base + ε/2; p's error 1.5·e_q plus q^(−3/2)'s own
+    /// (13.2ε on AVX2 lanes, see [`pow_neg_three_halves`]). +∞ where η ≥ 1/2 or β ≠ 0.
+    fn linear_error(&self, eta: f64) -> f64 {
+        let eps = 2f64.powi(-24);
+        if !(0.0..0.5).contains(&eta) || self.beta != 0.0 || self.base.is_nan() || self.base <= 0.0
+        {
+            return f64::INFINITY;
+        }
+        let w = self.w.map(f64::from);
+        let w2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+        let (gg, base) = (f64::from(self.gg), f64::from(self.base));
+        let g = 2.0 * gg * w2.sqrt();
+        let q0 = base + gg * (1.0 + w2);
+        let kappa = (2.0 / (1.0 - eta)).sqrt();
+        let e_inv_n = 6.0 * eps * (1.0 + eta) / (1.0 - eta);
+        let e_abs = eps * g * (kappa / 2.0 + 1.0) + g * e_inv_n + eps / 2.0 * q0;
+        1.5 * (e_abs / base + eps / 2.0) + 13.2 * eps
+    }
+
     /// p/α for the view directions `d · inv_n` (unit); `beta`: whether any term of the
     /// frame has β ≠ 0 (else c is not formed).
     #[inline(always)]
@@ -519,6 +549,11 @@ pub(crate) struct HeightPass {
     /// the division: t·n = depth ≤ T_LO·n_max gives τ ≤ 2⁻⁴⁰ as above, and the product
     /// depth·(1/n) is not formed subnormal.
     d_lo: f32,
+    /// The one phase function's q is formed from cos θ in rows that take [`RowFactor`]
+    /// with linear view depth ([`LinearRow`]): a frame with one phase function of β = 0
+    /// (Henyey–Greenstein) whose [`PhaseTerm::linear_error`] is within
+    /// [`LINEAR_PHASE_BUDGET`].
+    phase_linear: bool,
     /// u = `d[axis]` is the same for every pixel of a row (an axis up with `d_u[axis]` = 0,
     /// an upright camera), and 2⁻³⁰ ≤ n_min ≤ n_max ≤ 2³⁰: rows may take [`RowFactor`].
     row_uniform: bool,
@@ -764,6 +799,15 @@ impl HeightPass {
                 + f64::from(layer.colour_const[j]).abs()
         });
         let colour_bounded = colour_max.iter().all(|&c| c <= 1e38);
+        // The rows' directions d = rd + u·d_u, rd = d0 + v·d_v: |d_u·rd| ≤ η·|d_u|·|rd|
+        // (|rd| ≥ n_min), for `PhaseTerm::linear_error` and `LinearRow`'s n².
+        let eta = (dot(du, d0).abs() + dot(du, dv).abs()) / (norm(du) * n_min);
+        let row_uniform = row_uniform && uni_lo <= f64::from(UNI_HI);
+        let phase_linear = row_uniform
+            && depth == LINEAR
+            && n_phases == 1
+            && eta <= LINEAR_ETA_MAX
+            && phases[0].linear_error(eta) <= LINEAR_PHASE_BUDGET;
         let lerp = colour_max.iter().all(|&c| c <= LERP_COLOUR_MAX);
         Some(HeightPass {
             grey: k[0] == k[1] && k[1] == k[2],
@@ -787,7 +831,8 @@ impl HeightPass {
             t_big,
             t_lo,
             d_lo,
-            row_uniform: row_uniform && uni_lo <= f64::from(UNI_HI),
+            row_uniform,
+            phase_linear,
             uni_lo: uni_lo as f32,
             g_lo,
         })
@@ -795,6 +840,11 @@ impl HeightPass {
 }
 
 impl HeightPass {
+    /// [`HeightPass::phase_linear`] (`Scene::fog_pass_linear_phase`).
+    pub(crate) fn phase_linear(&self) -> bool {
+        self.phase_linear
+    }
+
     /// How many of the frame's rows take [`RowFactor`] (`Scene::fog_pass_uniform_rows`).
     pub(crate) fn uniform_rows(&self, plan: &FramePlan, height: usize) -> usize {
         (0..height)
@@ -935,6 +985,50 @@ fn rows_with<'a, R: RowColour, W: PassLane, const PH: usize, const GREY: bool, c
 
 /// Packets per block: the row is processed block by block in stages (see [`row`]).
 const BLOCK: usize = 16;
+
+/// The largest relative error of the phase value that the linear form of q may add
+/// ([`PhaseTerm::linear_error`]): 2⁻¹⁷ = 7.6e-6, within the crate's tolerance on L_in
+/// (10⁻⁵ of the fog colour), which the rest of the colour's roundings (a few 2⁻²⁴) leave
+/// almost whole. Henyey–Greenstein's |g| up to about 0.64 (AVX2 lanes' bound).
+const LINEAR_PHASE_BUDGET: f64 = 7.629_394_531_25e-6;
+/// The largest η ([`PhaseTerm::linear_error`]) for the linear form: 2⁻⁶, so that n²'s
+/// quadratic in u has a condition below 1.04 (a camera's d_u is orthogonal to its other
+/// axes: η is a few 2⁻²⁴ for [`super::Camera::perspective`]).
+const LINEAR_ETA_MAX: f64 = 0.015_625;
+
+/// The coefficients of one row's polynomials in u ([`HeightPass::phase_linear`]): n² =
+/// (a2·u + a1)·u + a0 and q = (k1·u + k0)·(1/n) + q0, from the row's direction rd + u·d_u
+/// (in f64, each rounded once): no direction per pixel, and q in two fused
+/// multiply-adds where |v + w|² took six (README "Zen 4, fifty-sixth session").
+#[derive(Clone, Copy, Default)]
+struct LinearRow {
+    a2: f32,
+    a1: f32,
+    a0: f32,
+    k1: f32,
+    k0: f32,
+    q0: f32,
+}
+
+impl LinearRow {
+    fn new(plan: &FramePlan, rp: &RowPlan, p: &PhaseTerm) -> LinearRow {
+        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let (du, rd, w) = (
+            plan.d_u.map(f64::from),
+            rp.d.map(f64::from),
+            p.w.map(f64::from),
+        );
+        let gg = f64::from(p.gg);
+        LinearRow {
+            a2: dot(du, du) as f32,
+            a1: (2.0 * dot(du, rd)) as f32,
+            a0: dot(rd, rd) as f32,
+            k1: (2.0 * gg * dot(du, w)) as f32,
+            k0: (2.0 * gg * dot(rd, w)) as f32,
+            q0: (f64::from(p.base) + gg * (1.0 + dot(w, w))) as f32,
+        }
+    }
+}
 
 /// The largest fog colour (2^100) for which the pass composites as c + (L − c)·T
 /// (`HeightPass::lerp`): for finite L, |L − c| rounds to at most f32::MAX (half an ULP
@@ -1149,17 +1243,54 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
             }
         }};
     }
-    match (rf.on, hp.depth) {
-        (true, LINEAR) => geometry_loop!(true, LINEAR),
-        (false, LINEAR) => geometry_loop!(false, LINEAR),
-        (uni, kind) => geometry_loop!(uni, kind),
+    // The linear form of q (`HeightPass::phase_linear`): n² and q from the column's u, no
+    // direction; q in the first of `colours`' three buffers.
+    let linear = PH == 1 && hp.phase_linear && rf.on;
+    if linear {
+        let lr = LinearRow::new(plan, rp, &hp.phases[0]);
+        let mut x = x_start;
+        for ((((dv, uv), y), g), cw) in depth
+            .chunks_exact(n_lanes)
+            .zip(cols.chunks_exact(n_lanes))
+            .zip(ys.iter_mut())
+            .zip(gs.iter_mut())
+            .zip(colours.iter_mut())
+        {
+            out.prefetch(x, n_lanes);
+            super::prefetch_read(dv.as_ptr().wrapping_add(BLOCK * n_lanes));
+            x += n_lanes;
+            let u = W::load(uv);
+            let n2 = u
+                .mul_add(W::splat(lr.a2), W::splat(lr.a1))
+                .mul_add(u, W::splat(lr.a0));
+            let inv_n = rsqrt(n2);
+            // As `geometry` in a row of `RowFactor` with linear view depth.
+            let t = Lane::min(W::splat(rf.t_hi), Lane::max(W::splat(rf.t_lo), W::load(dv)));
+            let yv = W::splat(rf.b2u) * t;
+            y_max = Lane::max(yv, y_max);
+            *y = yv;
+            *g = (n2 * inv_n) * W::splat(rf.c);
+            cw[0] = u
+                .mul_add(W::splat(lr.k1), W::splat(lr.k0))
+                .mul_add(inv_n, W::splat(lr.q0));
+        }
+    } else {
+        match (rf.on, hp.depth) {
+            (true, LINEAR) => geometry_loop!(true, LINEAR),
+            (false, LINEAR) => geometry_loop!(false, LINEAR),
+            (uni, kind) => geometry_loop!(uni, kind),
+        }
     }
     // 1b. The phase value or fog colour, in a loop of its own (see `row`).
     if PH > 0 {
         let mut x = x_start;
         for ((p, c), p3) in ps.iter_mut().zip(colours.iter_mut()).zip(ps3.iter_mut()) {
             if PH == 1 {
-                let pv = hp.phases[0].finish(*c, *p, hp.beta);
+                let pv = if linear {
+                    pow_neg_three_halves(c[0])
+                } else {
+                    hp.phases[0].finish(*c, *p, hp.beta)
+                };
                 // A full block of an interleaved RGB row reads only the expanded value
                 // (where the third stage does not expand it itself).
                 if rgb3 && full_block && !W::EXPAND_IN_THIRD {

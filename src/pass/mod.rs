@@ -292,6 +292,23 @@ impl Scene {
             .map_or(0, |(plan, hp)| hp.uniform_rows(&plan, height)))
     }
 
+    /// Whether the own kernel forms its phase function's q = base + gg·|v + w|² from
+    /// cos θ in the frame's rows of constant b·u (a polynomial in the column's u; where
+    /// the bound on the error this adds is within 2⁻¹⁷ relative); false where it does
+    /// not run. For tests.
+    #[doc(hidden)]
+    pub fn fog_pass_linear_phase(
+        &self,
+        camera: &Camera,
+        width: usize,
+        height: usize,
+        convention: DepthConvention,
+    ) -> Result<bool, PassError> {
+        Ok(self
+            .own_height_pass(camera, width, height, convention)?
+            .is_some_and(|(_, hp)| hp.phase_linear()))
+    }
+
     /// The frame's plan and own kernel constants where [`Scene::fog_pass`] runs the own
     /// kernel (the choice `fog_pass` makes: no exact pass, no volumes to cull, a frame
     /// `HeightPass::new` accepts).
