@@ -92,16 +92,52 @@ pub fn exp2_nonpos_table<L: Lane>(y: L) -> L {
 /// (bound 1.0) for normal results, below 0.98·2⁻¹²⁶ absolute under them.
 #[inline(always)]
 pub fn exp2_nonpos_table_mul<L: Lane>(k: L, g: L) -> L {
-    let t = k.mul_add(g, L::splat(ROUND16));
-    let m16 = t - L::splat(ROUND16);
+    exp2_nonpos_table_mul_with(k, g, &TableMulConsts::new())
+}
+
+/// The constants of [`exp2_nonpos_table_mul`] as lanes, for callers that set where they
+/// are formed: the pass makes them opaque (`core::hint::black_box`) before its loop of
+/// T, so that LLVM does not hoist them to the entry of the whole row function, where its
+/// other loops left no registers for them and the loop of T loaded four of them again
+/// in every packet (README "Zen 4, fifty-sixth session").
+#[derive(Clone, Copy)]
+pub struct TableMulConsts<L> {
+    round16: L,
+    c2: L,
+    c1: L,
+    ln2: L,
+}
+
+impl<L: Lane> TableMulConsts<L> {
+    /// The constants.
+    #[inline(always)]
+    pub fn new() -> Self {
+        TableMulConsts {
+            round16: L::splat(ROUND16),
+            c2: L::splat(0.055_505_086),
+            c1: L::splat(-0.240_233_56),
+            ln2: L::splat(core::f32::consts::LN_2),
+        }
+    }
+}
+
+impl<L: Lane> Default for TableMulConsts<L> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// [`exp2_nonpos_table_mul`] with its constants given (the same bits).
+#[inline(always)]
+pub fn exp2_nonpos_table_mul_with<L: Lane>(k: L, g: L, c: &TableMulConsts<L>) -> L {
+    let t = k.mul_add(g, c.round16);
+    let m16 = t - c.round16;
     // r' = m/16 − k·g = −r. (g negated, not k: LLVM hoists the negation of a
     // loop-invariant k out of the pass's loops and holds −k in three more registers,
     // where g's folds into `vfnmadd`.)
     let rn = g.neg_mul_add(k, m16);
     let tab = t.lookup16(&TABLE);
-    let p = rn
-        .mul_add(L::splat(0.055_505_086), L::splat(-0.240_233_56))
-        .mul_add(rn, L::splat(core::f32::consts::LN_2));
+    let p = rn.mul_add(c.c2, c.c1).mul_add(rn, c.ln2);
     let q = p * rn;
     q.neg_mul_add(tab, tab)
         .scale2_floor_or_zero(m16, m16, FLUSH_BELOW)

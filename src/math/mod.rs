@@ -44,7 +44,9 @@ pub use asinh::asinh;
 pub use erf::{erf, erfc};
 pub use exp::{exp, exp_split};
 pub use exp2_nonpos::exp2_nonpos;
-pub use exp2_nonpos_table::{exp2_nonpos_table, exp2_nonpos_table_mul};
+pub use exp2_nonpos_table::{
+    exp2_nonpos_table, exp2_nonpos_table_mul, exp2_nonpos_table_mul_with, TableMulConsts,
+};
 pub use exp2_split::exp2_split;
 pub use exp2m1::{exp2m1, exp2m1_in_range};
 pub use exp_neg::{exp_neg, exp_neg_mul, ExpNegMul};

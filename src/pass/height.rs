@@ -66,7 +66,8 @@ use super::RowColour;
 use crate::kernel::Single;
 use crate::light::Phase;
 use crate::math::{
-    exp2_nonpos, exp2_nonpos_table_mul, exp2m1, exp2m1_in_range, exp_neg_fast, Lane,
+    exp2_nonpos, exp2_nonpos_table_mul_with, exp2m1, exp2m1_in_range, exp_neg_fast, Lane,
+    TableMulConsts,
 };
 use crate::medium::volume::clamp_colour;
 use crate::scene::{Scene, UpAxis};
@@ -295,14 +296,16 @@ pub(crate) trait PassLane: Lane {
     /// Whether [`PassLane::rsqrt_estimate`] is AVX-512's `vrsqrt14ps` (relative error
     /// below 2⁻¹⁴), precise enough for [`pow_neg_three_halves`]'s one Newton step.
     const PRECISE_RSQRT: bool;
-    /// 2^(k·g) for k·g ≤ 0, the transmittance: [`exp2_nonpos_table_mul`] where the lanes
+    /// 2^(k·g) for k·g ≤ 0, the transmittance: [`crate::math::exp2_nonpos_table_mul`] (with
+    /// its constants given) where the lanes
     /// are AVX-512's (its lookup and masked scale one instruction each, the product fused
     /// into its reduction; the table form made the in-cache frame about 1.15× as fast,
     /// median of eight alternating pairs, on the Intel Xeon of the thirty-sixth session:
     /// README "Speed of the pass"), [`exp2_nonpos`] of the rounded product elsewhere.
     /// Other last bits, like the estimate of 1/√x.
     #[inline(always)]
-    fn exp2_nonpos_mul(k: Self, g: Self) -> Self {
+    fn exp2_nonpos_mul(k: Self, g: Self, c: &TableMulConsts<Self>) -> Self {
+        let _ = c;
         exp2_nonpos(k * g)
     }
     /// num / den, the pass's one quotient exp2m1(y')/y': a division, or where the lanes
@@ -359,8 +362,8 @@ impl PassLane for f32x8 {
     }
     #[cfg(all(target_feature = "avx512f", target_feature = "avx512vl"))]
     #[inline(always)]
-    fn exp2_nonpos_mul(k: Self, g: Self) -> Self {
-        exp2_nonpos_table_mul(k, g)
+    fn exp2_nonpos_mul(k: Self, g: Self, c: &TableMulConsts<Self>) -> Self {
+        exp2_nonpos_table_mul_with(k, g, c)
     }
     #[cfg(all(target_feature = "avx512f", target_feature = "avx512vl"))]
     #[inline(always)]
@@ -407,8 +410,8 @@ impl PassLane for f32x16 {
     }
     #[cfg(target_feature = "avx512f")]
     #[inline(always)]
-    fn exp2_nonpos_mul(k: Self, g: Self) -> Self {
-        exp2_nonpos_table_mul(k, g)
+    fn exp2_nonpos_mul(k: Self, g: Self, c: &TableMulConsts<Self>) -> Self {
+        exp2_nonpos_table_mul_with(k, g, c)
     }
     #[cfg(target_feature = "avx512f")]
     #[inline(always)]
@@ -459,8 +462,8 @@ impl PassLane for crate::math::zmm::Zmm {
         self.rsqrt14()
     }
     #[inline(always)]
-    fn exp2_nonpos_mul(k: Self, g: Self) -> Self {
-        exp2_nonpos_table_mul(k, g)
+    fn exp2_nonpos_mul(k: Self, g: Self, c: &TableMulConsts<Self>) -> Self {
+        exp2_nonpos_table_mul_with(k, g, c)
     }
     #[inline(always)]
     fn quotient(num: Self, den: Self) -> Self {
@@ -1146,14 +1149,13 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     // the AVX-512 entry point `zmm::rows_zmm`, and may stay out of line there.)
     let kk = if FAST { hp.k } else { hp.k2 };
     #[inline(always)]
-    fn trans<W: PassLane, const FAST: bool>(k: W, g: W) -> W {
+    fn trans<W: PassLane, const FAST: bool>(k: W, g: W, c: &TableMulConsts<W>) -> W {
         if FAST {
             exp_neg_fast(k * g)
         } else {
-            W::exp2_nonpos_mul(k, g)
+            W::exp2_nonpos_mul(k, g, c)
         }
     }
-    let trans = trans::<W, FAST>;
     // The colour's clamp, left out where the frame bounds it (`HeightPass::colour_bounded`;
     // the same bits either way).
     #[inline(always)]
@@ -1373,7 +1375,10 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     } else {
         g_loops!((floor_g, g_lo, clamp_g, three))
     }
-    // 3. T = e^(−τ_c) = 2^(k2_c·g'), L_in = colour · (1 − T), L ← L·T + L_in.
+    // 3. T = e^(−τ_c) = 2^(k2_c·g'), L_in = colour · (1 − T), L ← L·T + L_in. T's
+    // constants formed here, opaque (see `TableMulConsts`): hoisted to the row function's
+    // entry, they were loaded again in every packet.
+    let tc = core::hint::black_box(TableMulConsts::<W>::new());
     let mut x0 = x_start;
     for (k, (((&g, &p), c), (g3, p3))) in gs
         .iter()
@@ -1392,12 +1397,12 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
                 (g3, p3)
             };
             let t = if GREY {
-                trans(W::splat(kk[0]), g).expand3()
+                trans::<W, FAST>(W::splat(kk[0]), g, &tc).expand3()
             } else {
                 [
-                    trans(k3[0], g3[0]),
-                    trans(k3[1], g3[1]),
-                    trans(k3[2], g3[2]),
+                    trans::<W, FAST>(k3[0], g3[0], &tc),
+                    trans::<W, FAST>(k3[1], g3[1], &tc),
+                    trans::<W, FAST>(k3[2], g3[2], &tc),
                 ]
             };
             let mut c = [zero; 3];
@@ -1420,12 +1425,12 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
             }
         } else {
             let trans = if GREY {
-                [trans(W::splat(kk[0]), g); 3]
+                [trans::<W, FAST>(W::splat(kk[0]), g, &tc); 3]
             } else {
                 [
-                    trans(W::splat(kk[0]), g),
-                    trans(W::splat(kk[1]), g),
-                    trans(W::splat(kk[2]), g),
+                    trans::<W, FAST>(W::splat(kk[0]), g, &tc),
+                    trans::<W, FAST>(W::splat(kk[1]), g, &tc),
+                    trans::<W, FAST>(W::splat(kk[2]), g, &tc),
                 ]
             };
             // (Written out, no closures: see `trans`.)
