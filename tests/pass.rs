@@ -466,7 +466,7 @@ fn own_kernel_within_the_accuracy_bound() {
     let (mut uniform_frames, mut uniform_rows) = (0, 0);
     let (mut dt_max, mut dl_max) = (0.0f32, 0.0f64);
     let (mut dz_t, mut dz_l) = (0.0f32, 0.0f64);
-    let (mut linear_frames, mut dz_l_linear) = (0usize, 0.0f64);
+    let (mut linear_frames, mut dz_l_linear, mut worst_linear) = (0usize, 0.0f64, 0.0f64);
     for case in 0..240 {
         let (w, h) = SIZES[case % SIZES.len()];
         let kind = [0, 2, 3][case % 3];
@@ -606,6 +606,9 @@ fn own_kernel_within_the_accuracy_bound() {
             };
             let (r, chk) = check_pixel(&desc, &ray, t, l, ctx);
             worst = worst.max(chk.trans_ratio.max(chk.insc_ratio));
+            if linear {
+                worst_linear = worst_linear.max(chk.trans_ratio.max(chk.insc_ratio));
+            }
             let scale = r.colour.iter().cloned().fold(1e-30, f64::max);
             if own_zmm {
                 // The AVX2 lanes' results: within the bound too, and near the AVX-512
@@ -666,8 +669,12 @@ fn own_kernel_within_the_accuracy_bound() {
          declined {declined}, {pixels} pixels, worst ratio to the \
          bound {worst:.3}; vs batch API: max |dT| {dt_max:.2e}, max |dL|/C {dl_max:.2e}; \
          AVX-512 vs AVX2 lanes: max |dT| {dz_t:.2e}, max |dL|/C {dz_l:.2e}; \
-         {linear_frames} frames with the linear phase form, AVX-512 vs AVX2 max |dL|/C \
-         {dz_l_linear:.2e}"
+         {linear_frames} frames with the linear phase form (worst ratio {worst_linear:.3}), \
+         AVX-512 vs AVX2 max |dL|/C {dz_l_linear:.2e}"
+    );
+    assert!(
+        linear_frames >= 3,
+        "{linear_frames} frames with the linear phase form"
     );
     assert!(
         own >= 60 && declined >= 20 && uniform_frames >= 20,
