@@ -59,7 +59,10 @@
 //!
 //! Where u is the same along a row (a camera upright in the scene), the row forms g' as
 //! exp2m1(y')·(n·c) with c = 1/(b2·u) a constant of the row: no division per pixel
-//! ([`RowFactor`], which gives its ranges and its error, about one ULP more).
+//! ([`RowFactor`], which gives its ranges and its error, about one ULP more). There, with
+//! linear view depth and one Henyey–Greenstein phase function whose error bound allows it,
+//! n² and the phase function's q are polynomials in the column's u and no direction is
+//! formed ([`LinearRow`], [`PhaseTerm::linear_error`]).
 
 use super::camera::{DepthPlan, FramePlan, RowPlan};
 use super::RowColour;
@@ -992,7 +995,7 @@ const BLOCK: usize = 16;
 /// The largest relative error of the phase value that the linear form of q may add
 /// ([`PhaseTerm::linear_error`]): 2⁻¹⁷ = 7.6e-6, within the crate's tolerance on L_in
 /// (10⁻⁵ of the fog colour), which the rest of the colour's roundings (a few 2⁻²⁴) leave
-/// almost whole. Henyey–Greenstein's |g| up to about 0.64 (AVX2 lanes' bound).
+/// almost whole. Henyey–Greenstein's |g| up to about 0.63 (AVX2 lanes' bound).
 const LINEAR_PHASE_BUDGET: f64 = 7.629_394_531_25e-6;
 /// The largest η ([`PhaseTerm::linear_error`]) for the linear form: 2⁻⁶, so that n²'s
 /// quadratic in u has a condition below 1.04 (a camera's d_u is orthogonal to its other
