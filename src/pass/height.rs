@@ -1068,12 +1068,20 @@ fn row<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const FAST:
 ) {
     let rp = plan.row(y);
     let rf = RowFactor::of(hp, &rp);
+    // The row's polynomials in u where it takes the linear form of q (see `block_of`).
+    let lr = if PH == 1 && hp.phase_linear && rf.on {
+        LinearRow::new(plan, &rp, &hp.phases[0])
+    } else {
+        LinearRow::default()
+    };
     let width = depth.len();
     let n_lanes = W::LANES;
     let full = width / n_lanes * n_lanes;
     for (b, block) in depth[..full].chunks(n_lanes * BLOCK).enumerate() {
         let x = b * n_lanes * BLOCK;
-        block_of::<R, W, PH, GREY, FAST>(hp, plan, &rp, &rf, us, x, block, n_lanes, bufs, &mut out);
+        block_of::<R, W, PH, GREY, FAST>(
+            hp, plan, &rp, &rf, &lr, us, x, block, n_lanes, bufs, &mut out,
+        );
     }
     if full < width {
         // The tail, padded into one packet (depth 0 in the dead lanes, dropped).
@@ -1081,7 +1089,9 @@ fn row<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const FAST:
         let padded = &mut padded[..n_lanes];
         padded[..width - full].copy_from_slice(&depth[full..]);
         let n = width - full;
-        block_of::<R, W, PH, GREY, FAST>(hp, plan, &rp, &rf, us, full, padded, n, bufs, &mut out);
+        block_of::<R, W, PH, GREY, FAST>(
+            hp, plan, &rp, &rf, &lr, us, full, padded, n, bufs, &mut out,
+        );
     }
 }
 
@@ -1140,6 +1150,7 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     plan: &FramePlan,
     rp: &RowPlan,
     rf: &RowFactor,
+    lr: &LinearRow,
     us: &[f32],
     x_start: usize,
     depth: &[f32],
@@ -1252,7 +1263,6 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     // direction; q in the first of `colours`' three buffers.
     let linear = PH == 1 && hp.phase_linear && rf.on;
     if linear {
-        let lr = LinearRow::new(plan, rp, &hp.phases[0]);
         let mut x = x_start;
         for ((((dv, uv), y), g), cw) in depth
             .chunks_exact(n_lanes)
@@ -1287,15 +1297,21 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
         }
     }
     // 1b. The phase value or fog colour, in a loop of its own (see `row`).
-    if PH > 0 {
+    if linear {
+        for ((p, c), p3) in ps.iter_mut().zip(colours.iter()).zip(ps3.iter_mut()) {
+            let pv = pow_neg_three_halves(c[0]);
+            // (As below.)
+            if rgb3 && full_block && !W::EXPAND_IN_THIRD {
+                *p3 = pv.expand3();
+            } else {
+                *p = pv;
+            }
+        }
+    } else if PH > 0 {
         let mut x = x_start;
         for ((p, c), p3) in ps.iter_mut().zip(colours.iter_mut()).zip(ps3.iter_mut()) {
             if PH == 1 {
-                let pv = if linear {
-                    pow_neg_three_halves(c[0])
-                } else {
-                    hp.phases[0].finish(*c, *p, hp.beta)
-                };
+                let pv = hp.phases[0].finish(*c, *p, hp.beta);
                 // A full block of an interleaved RGB row reads only the expanded value
                 // (where the third stage does not expand it itself).
                 if rgb3 && full_block && !W::EXPAND_IN_THIRD {
