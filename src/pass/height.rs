@@ -1572,6 +1572,30 @@ fn colour<W: PassLane>(hp: &HeightPass, d: [W; 3], inv_n: W) -> [W; 3] {
 mod peak_tests {
     use super::*;
 
+    /// `PhaseTerm::linear_error` for Henyey–Greenstein terms as `HeightPass::new` builds
+    /// them (a unit sun, η = 0, the figures the README gives): about 6.4e-6 at |g| = 0.6,
+    /// within `LINEAR_PHASE_BUDGET` up to |g| = 0.62 and above it from 0.63 (either sign),
+    /// growing with |g| and with η, +∞ for Cornette–Shanks (β ≠ 0) and for η ≥ 1/2.
+    #[test]
+    fn linear_error_admits_g_up_to_0_63() {
+        let s = [0.3f32, 0.4, -0.866_025_4];
+        let term = |g: f32| PhaseTerm::new(Phase::HenyeyGreenstein(g), [1.0; 3], s);
+        let e6 = term(0.6).linear_error(0.0);
+        eprintln!("linear_error, g = 0.6: {e6:.3e}");
+        assert!((6.3e-6..6.5e-6).contains(&e6), "{e6}");
+        for g in [0.62f32, -0.62] {
+            assert!(term(g).linear_error(0.0) <= LINEAR_PHASE_BUDGET, "{g}");
+        }
+        for g in [0.63f32, -0.63, 0.9] {
+            assert!(term(g).linear_error(0.0) > LINEAR_PHASE_BUDGET, "{g}");
+        }
+        assert!(term(0.3).linear_error(0.0) < term(0.5).linear_error(0.0));
+        assert!(term(0.5).linear_error(0.0) < term(0.5).linear_error(LINEAR_ETA_MAX));
+        assert_eq!(term(0.5).linear_error(0.5), f64::INFINITY);
+        let cs = PhaseTerm::new(Phase::CornetteShanks(0.5), [1.0; 3], s);
+        assert_eq!(cs.linear_error(0.0), f64::INFINITY);
+    }
+
     /// `PhaseTerm::eval` (1/|d| from the pass's `rsqrt`, as in the pass) stays below
     /// `PhaseTerm::peak`·(1 + 1e-5) for every phase function, g up to ±0.9999, at the peak
     /// (views along and against the sun, unit and scaled directions) and around it, and
