@@ -17,6 +17,8 @@
 //! `PLAIN=1` runs the plain pass of `benches/pass.rs` (read depth and colour, write
 //! colour; one thread) instead of the fog pass: with `H=` it shows at what frame size the
 //! frame stops fitting in the cache this process gets (the fog pass's memory stalls).
+//! `DEPTH=k` sets the depth convention (the same view depths converted): `distance`,
+//! `ndc` (standard, near 0.1, far 1e4) or `ndc_rev` (reversed-Z, near 0.1, far +∞).
 //! `DEPTHS=k` replaces the lower half's depths, for extreme data: `zero` (0), `subnormal`
 //! (1e-40 to 1e-38), `tiny` (1e-30), `huge` (1e30), `max` (f32::MAX), `sky` (every pixel
 //! +∞). `TILT=1` rolls the camera a little (its up +Y + 0.05·X), so that no row has a
@@ -24,7 +26,7 @@
 //! `FALLOFF=b` sets the layer's falloff (default 0.1) and `SCALE=s` multiplies its
 //! scattering coefficients (default 1), for scanning extreme media.
 
-use analytic_fog::pass::{Camera, ColourBuffer, Depth, DepthConvention};
+use analytic_fog::pass::{Camera, ColourBuffer, Depth};
 use analytic_fog::{Component, HeightFogLayer, Lighting, Phase, Scene, SceneDesc, Sun};
 use glam::Vec3;
 fn main() {
@@ -109,6 +111,32 @@ fn main() {
             }
         })
         .collect();
+    // `DEPTH=k`: the depth convention, the same view depths converted: `distance` (taken
+    // as distances along the rays), `ndc` (standard, near 0.1, far 1e4) or `ndc_rev`
+    // (reversed-Z, near 0.1, infinite far); linear view depth otherwise.
+    let convention = std::env::var("DEPTH").unwrap_or_default();
+    let (near, far) = (0.1f64, 1e4f64);
+    let depth: Vec<f32> = depth
+        .iter()
+        .map(|&z| {
+            let z = f64::from(z);
+            match convention.as_str() {
+                "ndc" if z.is_infinite() => 1.0,
+                "ndc" => (far * (z - near) / (z * (far - near))) as f32,
+                "ndc_rev" => (near / z) as f32,
+                _ => z as f32,
+            }
+        })
+        .collect();
+    let depth_of = |values: &'static [f32]| -> Depth<'static> {
+        match convention.as_str() {
+            "distance" => Depth::distance(values),
+            "ndc" => Depth::ndc(values, near as f32, far as f32),
+            "ndc_rev" => Depth::ndc_reversed(values, near as f32, f32::INFINITY),
+            _ => Depth::linear_view(values),
+        }
+    };
+    let depth: &'static [f32] = depth.leak();
     let mut c = vec![0.5f32; 3 * w * h];
     // `FRAMES=n`: n frames (for a sampling profiler), printing the best frame's time.
     let frames: usize = std::env::var("FRAMES")
@@ -122,7 +150,7 @@ fn main() {
     // depths clamped to 1e4 as in the bench's depth for it (so the colour stays finite).
     if std::env::var("PLAIN").is_ok_and(|v| v == "1") {
         let best = best_of(frames, || {
-            for (px, z) in c.chunks_exact_mut(3).zip(&depth) {
+            for (px, z) in c.chunks_exact_mut(3).zip(depth) {
                 let z = z.min(1e4);
                 for v in px {
                     *v = *v * 0.5 + z * 1e-3;
@@ -140,7 +168,7 @@ fn main() {
     if std::env::var("PAR").is_ok_and(|v| v == "2") {
         let mut c2 = c.clone();
         let frame = |c: &mut [f32]| {
-            let (dv, cb) = (Depth::linear_view(&depth), ColourBuffer::Rgb(c));
+            let (dv, cb) = (depth_of(depth), ColourBuffer::Rgb(c));
             scene.fog_pass_single(&cam, w, h, dv, cb).unwrap()
         };
         let best = best_of(frames, || {
@@ -154,7 +182,7 @@ fn main() {
         return;
     }
     let best = best_of(frames, || {
-        let (dv, cb) = (Depth::linear_view(&depth), ColourBuffer::Rgb(&mut c));
+        let (dv, cb) = (depth_of(depth), ColourBuffer::Rgb(&mut c));
         if par {
             scene.fog_pass(&cam, w, h, dv, cb).unwrap();
         } else {
@@ -162,13 +190,17 @@ fn main() {
         }
     });
     let own = scene
-        .fog_pass_own_kernel(&cam, w, h, DepthConvention::LinearView)
+        .fog_pass_own_kernel(&cam, w, h, depth_of(depth).convention)
         .unwrap();
     let uniform = scene
-        .fog_pass_uniform_rows(&cam, w, h, DepthConvention::LinearView)
+        .fog_pass_uniform_rows(&cam, w, h, depth_of(depth).convention)
+        .unwrap();
+    let linear = scene
+        .fog_pass_linear_phase(&cam, w, h, depth_of(depth).convention)
         .unwrap();
     println!(
-        "{}  best frame of {frames}: {:.3} ms, {:.3} ns per pixel ({}, {uniform} uniform rows)",
+        "{}  best frame of {frames}: {:.3} ms, {:.3} ns per pixel ({}, {uniform} uniform rows, \
+         linear phase form: {linear})",
         c[12345 % c.len()],
         best * 1e3,
         best * 1e9 / (w * h) as f64,

@@ -2072,8 +2072,9 @@ fn own_kernel_composite_of_extreme_colours() {
 /// cos θ, which cancels toward the peak of Henyey–Greenstein's lobe) at that peak: the
 /// sun in the middle of narrow frames of an upright camera, no ambient light and dense
 /// fog (L_in near the fog colour, all of it the sun's), every pixel against the f64
-/// reference with the crate's bound, in the layouts and lane widths the pass runs. |g|
-/// up to 0.6 takes the linear form (its error bound within 2⁻¹⁷), 0.7 and 0.9 do not.
+/// reference with the crate's bound, in the lane widths the pass runs and in the four
+/// depth conventions. |g| up to 0.6 takes the linear form (its error bound within 2⁻¹⁷),
+/// 0.7 and 0.9 do not.
 #[test]
 fn linear_phase_form_within_the_bound_at_the_peak() {
     let mut rng = Rng(0x5eed_0056);
@@ -2113,13 +2114,7 @@ fn linear_phase_form_within_the_bound_at_the_peak() {
         // Toward the sun where g > 0 (the lobe's peak forward), away where g < 0.
         let fwd = if g > 0.0 { sun } else { -sun };
         let cam = Camera::perspective(Vec3::new(1.0, 3.0, -2.0), fwd, Vec3::Y, fov, 1.5).unwrap();
-        let conv = DepthConvention::LinearView;
-        assert_eq!(
-            scene.fog_pass_linear_phase(&cam, w, h, conv).unwrap(),
-            linear,
-            "g {g}"
-        );
-        let depth: Vec<f32> = (0..w * h)
+        let z: Vec<f32> = (0..w * h)
             .map(|i| {
                 if i % 7 == 0 {
                     f32::INFINITY
@@ -2128,26 +2123,61 @@ fn linear_phase_form_within_the_bound_at_the_peak() {
                 }
             })
             .collect();
-        let d = Depth::linear_view(&depth);
-        for lanes in 0..3 {
-            let sc = match lanes {
-                0 => scene.clone(),
-                1 => scene.clone().with_pass_lanes_8(),
-                _ => scene.clone().without_avx512_dispatch(),
+        let ndc = |near: f64, far: f64, reversed: bool| {
+            let conv = DepthConvention::NdcZeroToOne {
+                near: near as f32,
+                far: far as f32,
+                reversed,
             };
-            let mut black = vec![0.0f32; 3 * w * h];
-            sc.fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut black))
-                .unwrap();
-            let mut white = vec![BIG; 3 * w * h];
-            sc.fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut white))
-                .unwrap();
-            for i in 0..w * h {
-                let ray = cam.pixel_ray(i % w, i / w, w, h, depth[i], conv).unwrap();
-                let l = [0, 1, 2].map(|c| black[3 * i + c]);
-                let t = [0, 1, 2].map(|c| recover_t(white[3 * i + c], l[c]));
-                let ctx = || format!("g {g}, fov {fov}, lanes {lanes}, pixel {i}");
-                let (_, chk) = check_pixel(&desc, &ray, t, l, ctx);
-                worst = worst.max(chk.insc_ratio);
+            // The standard [0, 1] depth far·(z − near)/(z·(far − near)); reversed 1 − it.
+            let v = z.iter().map(|&z| {
+                let s = if z.is_infinite() {
+                    1.0
+                } else if far.is_infinite() {
+                    1.0 - near / f64::from(z)
+                } else {
+                    far * (f64::from(z) - near) / (f64::from(z) * (far - near))
+                };
+                (if reversed { 1.0 - s } else { s }) as f32
+            });
+            (conv, v.collect::<Vec<f32>>())
+        };
+        for (conv, depth) in [
+            (DepthConvention::LinearView, z.clone()),
+            // (As distances along the rays: other rays, as good for the check.)
+            (DepthConvention::Distance, z.clone()),
+            ndc(0.5, 5000.0, false),
+            ndc(0.1, f64::INFINITY, true),
+        ] {
+            assert_eq!(
+                scene.fog_pass_linear_phase(&cam, w, h, conv).unwrap(),
+                linear,
+                "g {g}, {conv:?}"
+            );
+            let d = Depth {
+                values: &depth,
+                convention: conv,
+            };
+            for lanes in 0..3 {
+                let sc = match lanes {
+                    0 => scene.clone(),
+                    1 => scene.clone().with_pass_lanes_8(),
+                    _ => scene.clone().without_avx512_dispatch(),
+                };
+                let mut black = vec![0.0f32; 3 * w * h];
+                sc.fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut black))
+                    .unwrap();
+                let mut white = vec![BIG; 3 * w * h];
+                sc.fog_pass(&cam, w, h, d, ColourBuffer::Rgb(&mut white))
+                    .unwrap();
+                for i in 0..w * h {
+                    let ray = cam.pixel_ray(i % w, i / w, w, h, depth[i], conv).unwrap();
+                    let l = [0, 1, 2].map(|c| black[3 * i + c]);
+                    let t = [0, 1, 2].map(|c| recover_t(white[3 * i + c], l[c]));
+                    let ctx = || format!("g {g}, fov {fov}, {conv:?}, lanes {lanes}, pixel {i}");
+                    let (_, chk) = check_pixel(&desc, &ray, t, l, ctx);
+                    worst = worst.max(chk.insc_ratio);
+                }
             }
         }
     }

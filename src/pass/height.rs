@@ -60,9 +60,9 @@
 //! Where u is the same along a row (a camera upright in the scene), the row forms g' as
 //! exp2m1(y')·(n·c) with c = 1/(b2·u) a constant of the row: no division per pixel
 //! ([`RowFactor`], which gives its ranges and its error, about one ULP more). There, with
-//! linear view depth and one Henyey–Greenstein phase function whose error bound allows it,
-//! n² and the phase function's q are polynomials in the column's u and no direction is
-//! formed ([`LinearRow`], [`PhaseTerm::linear_error`]).
+//! one Henyey–Greenstein phase function whose error bound allows it, n² and the phase
+//! function's q are polynomials in the column's u and no direction is formed, in every
+//! depth convention ([`LinearRow`], [`PhaseTerm::linear_error`]).
 
 use super::camera::{DepthPlan, FramePlan, RowPlan};
 use super::RowColour;
@@ -556,7 +556,7 @@ pub(crate) struct HeightPass {
     /// depth·(1/n) is not formed subnormal.
     d_lo: f32,
     /// The one phase function's q is formed from cos θ in rows that take [`RowFactor`]
-    /// with linear view depth ([`LinearRow`]): a frame with one phase function of β = 0
+    /// ([`LinearRow`]; any depth convention): a frame with one phase function of β = 0
     /// (Henyey–Greenstein) whose [`PhaseTerm::linear_error`] is within
     /// [`LINEAR_PHASE_BUDGET`].
     phase_linear: bool,
@@ -810,7 +810,6 @@ impl HeightPass {
         let eta = (dot(du, d0).abs() + dot(du, dv).abs()) / (norm(du) * n_min);
         let row_uniform = row_uniform && uni_lo <= f64::from(UNI_HI);
         let phase_linear = row_uniform
-            && depth == LINEAR
             && n_phases == 1
             && eta <= LINEAR_ETA_MAX
             && phases[0].linear_error(eta) <= LINEAR_PHASE_BUDGET;
@@ -1262,32 +1261,43 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     // The linear form of q (`HeightPass::phase_linear`): n² and q from the column's u, no
     // direction; q in the first of `colours`' three buffers.
     let linear = PH == 1 && hp.phase_linear && rf.on;
+    // (One copy of the loop per depth convention, each a literal.)
+    macro_rules! linear_loop {
+        ($depth:expr) => {{
+            let mut x = x_start;
+            for ((((dv, uv), y), g), cw) in depth
+                .chunks_exact(n_lanes)
+                .zip(cols.chunks_exact(n_lanes))
+                .zip(ys.iter_mut())
+                .zip(gs.iter_mut())
+                .zip(colours.iter_mut())
+            {
+                out.prefetch(x, n_lanes);
+                super::prefetch_read(dv.as_ptr().wrapping_add(BLOCK * n_lanes));
+                x += n_lanes;
+                let u = W::load(uv);
+                let n2 = u
+                    .mul_add(W::splat(lr.a2), W::splat(lr.a1))
+                    .mul_add(u, W::splat(lr.a0));
+                let inv_n = rsqrt(n2);
+                // As `geometry` in a row of `RowFactor`.
+                let t = ray_t(hp, W::load(dv), inv_n, $depth);
+                let t = Lane::min(W::splat(rf.t_hi), Lane::max(W::splat(rf.t_lo), t));
+                let yv = W::splat(rf.b2u) * t;
+                y_max = Lane::max(yv, y_max);
+                *y = yv;
+                *g = (n2 * inv_n) * W::splat(rf.c);
+                cw[0] = u
+                    .mul_add(W::splat(lr.k1), W::splat(lr.k0))
+                    .mul_add(inv_n, W::splat(lr.q0));
+            }
+        }};
+    }
     if linear {
-        let mut x = x_start;
-        for ((((dv, uv), y), g), cw) in depth
-            .chunks_exact(n_lanes)
-            .zip(cols.chunks_exact(n_lanes))
-            .zip(ys.iter_mut())
-            .zip(gs.iter_mut())
-            .zip(colours.iter_mut())
-        {
-            out.prefetch(x, n_lanes);
-            super::prefetch_read(dv.as_ptr().wrapping_add(BLOCK * n_lanes));
-            x += n_lanes;
-            let u = W::load(uv);
-            let n2 = u
-                .mul_add(W::splat(lr.a2), W::splat(lr.a1))
-                .mul_add(u, W::splat(lr.a0));
-            let inv_n = rsqrt(n2);
-            // As `geometry` in a row of `RowFactor` with linear view depth.
-            let t = Lane::min(W::splat(rf.t_hi), Lane::max(W::splat(rf.t_lo), W::load(dv)));
-            let yv = W::splat(rf.b2u) * t;
-            y_max = Lane::max(yv, y_max);
-            *y = yv;
-            *g = (n2 * inv_n) * W::splat(rf.c);
-            cw[0] = u
-                .mul_add(W::splat(lr.k1), W::splat(lr.k0))
-                .mul_add(inv_n, W::splat(lr.q0));
+        match hp.depth {
+            LINEAR => linear_loop!(LINEAR),
+            DISTANCE => linear_loop!(DISTANCE),
+            _ => linear_loop!(NDC),
         }
     } else {
         match (rf.on, hp.depth) {
@@ -1502,6 +1512,26 @@ fn in_scattered<W: PassLane>(c: W, t: W) -> W {
     c.neg_mul_add(t, c)
 }
 
+/// The ray parameter t of depth values `depth` in the frame's convention (`depth_kind`,
+/// `hp.depth`, an argument so that a loop can pass it as a literal), for rays of length
+/// 1/`inv_n` per unit t: linear view depth as it is, a distance along the ray over |d|, an
+/// NDC depth through the projection (+∞ for sky).
+#[inline(always)]
+fn ray_t<W: PassLane>(hp: &HeightPass, depth: W, inv_n: W, depth_kind: usize) -> W {
+    match depth_kind {
+        LINEAR => depth,
+        // Raised first, so that the product is not formed subnormal (`HeightPass::d_lo`;
+        // `Lane::max`: NaN stays NaN).
+        DISTANCE => Lane::max(W::splat(hp.d_lo), depth) * inv_n,
+        _ => {
+            let [near, k, q, sky_s, sky_at] = hp.ndc;
+            let z = W::splat(near) / depth.mul_add(W::splat(k), W::splat(q));
+            let sky = Lane::ge(depth * W::splat(sky_s), W::splat(sky_at));
+            <W as Lane>::select(sky, W::splat(f32::INFINITY), z)
+        }
+    }
+}
+
 /// For the rays from the eye along `d` (any length) to depth values `depth`: y' = −Δ·log2(e)
 /// = b2·u·t kept away from 0 (E(Δ) = 1 below 2^-60), n·t, and 1/n; in a row that takes
 /// [`RowFactor`] (`uni`: `rf.on`), y' = (b2·u)·t with t ≥ t_lo, n·c, and 1/n. `uni` and
@@ -1518,18 +1548,7 @@ fn geometry<W: PassLane>(
     let n2 = d[0].mul_add(d[0], d[1].mul_add(d[1], d[2] * d[2]));
     let inv_n = rsqrt(n2);
     let n = n2 * inv_n;
-    let t = match depth_kind {
-        LINEAR => depth,
-        // Raised first, so that the product is not formed subnormal (`HeightPass::d_lo`;
-        // `Lane::max`: NaN stays NaN).
-        DISTANCE => Lane::max(W::splat(hp.d_lo), depth) * inv_n,
-        _ => {
-            let [near, k, q, sky_s, sky_at] = hp.ndc;
-            let z = W::splat(near) / depth.mul_add(W::splat(k), W::splat(q));
-            let sky = Lane::ge(depth * W::splat(sky_s), W::splat(sky_at));
-            <W as Lane>::select(sky, W::splat(f32::INFINITY), z)
-        }
-    };
+    let t = ray_t(hp, depth, inv_n, depth_kind);
     // Negative and short depths to T_LO (`Lane::max` is maxps: NaN, the second operand,
     // stays NaN); rays clamped to the frame's T_BIG (`Lane::min`: NaN stays NaN). Not
     // wide's `min`/`max`, which return the other operand for NaN.
