@@ -2070,7 +2070,7 @@ fn own_kernel_composite_of_extreme_colours() {
 
 /// The linear form of the phase function's q (`Scene::fog_pass_linear_phase`: q from
 /// cos θ, which cancels toward the peak of Henyey–Greenstein's lobe) at that peak: the
-/// sun in the middle of narrow frames of an upright camera, no ambient light and dense
+/// sun in the middle of narrow frames of an upright or a rolled camera, no ambient light and dense
 /// fog (L_in near the fog colour, all of it the sun's), every pixel against the f64
 /// reference with the crate's bound, in the lane widths the pass runs and in the four
 /// depth conventions. |g| up to 0.6 takes the linear form (its error bound within 2⁻¹⁷),
@@ -2081,14 +2081,17 @@ fn linear_phase_form_within_the_bound_at_the_peak() {
     let sun = Vec3::new(0.3, 0.2, -0.93).normalize();
     let (w, h) = (61, 37);
     let mut worst = 0.0f64;
-    for (g, fov, linear) in [
-        (0.6, 0.02, true),
-        (0.6, 0.3, true),
-        (-0.6, 0.02, true),
-        (0.45, 0.05, true),
-        (0.2, 1.2, true),
-        (0.7, 0.02, false),
-        (0.9, 0.05, false),
+    // (g, field of view, takes the linear form, camera rolled: no row of constant b·u)
+    for (g, fov, linear, rolled) in [
+        (0.6, 0.02, true, false),
+        (0.6, 0.3, true, false),
+        (-0.6, 0.02, true, false),
+        (0.45, 0.05, true, false),
+        (0.2, 1.2, true, false),
+        (0.6, 0.3, true, true),
+        (-0.45, 0.05, true, true),
+        (0.7, 0.02, false, false),
+        (0.9, 0.05, false, true),
     ] {
         let desc = SceneDesc {
             height_fog: vec![HeightFogLayer {
@@ -2113,7 +2116,12 @@ fn linear_phase_form_within_the_bound_at_the_peak() {
         let scene = Scene::new(desc.clone()).unwrap();
         // Toward the sun where g > 0 (the lobe's peak forward), away where g < 0.
         let fwd = if g > 0.0 { sun } else { -sun };
-        let cam = Camera::perspective(Vec3::new(1.0, 3.0, -2.0), fwd, Vec3::Y, fov, 1.5).unwrap();
+        let up = if rolled {
+            Vec3::new(0.4, 1.0, 0.1)
+        } else {
+            Vec3::Y
+        };
+        let cam = Camera::perspective(Vec3::new(1.0, 3.0, -2.0), fwd, up, fov, 1.5).unwrap();
         let z: Vec<f32> = (0..w * h)
             .map(|i| {
                 if i % 7 == 0 {
@@ -2152,7 +2160,7 @@ fn linear_phase_form_within_the_bound_at_the_peak() {
             assert_eq!(
                 scene.fog_pass_linear_phase(&cam, w, h, conv).unwrap(),
                 linear,
-                "g {g}, {conv:?}"
+                "g {g}, rolled {rolled}, {conv:?}"
             );
             let d = Depth {
                 values: &depth,
@@ -2174,7 +2182,11 @@ fn linear_phase_form_within_the_bound_at_the_peak() {
                     let ray = cam.pixel_ray(i % w, i / w, w, h, depth[i], conv).unwrap();
                     let l = [0, 1, 2].map(|c| black[3 * i + c]);
                     let t = [0, 1, 2].map(|c| recover_t(white[3 * i + c], l[c]));
-                    let ctx = || format!("g {g}, fov {fov}, {conv:?}, lanes {lanes}, pixel {i}");
+                    let ctx = || {
+                        format!(
+                            "g {g}, fov {fov}, rolled {rolled}, {conv:?}, lanes {lanes}, pixel {i}"
+                        )
+                    };
                     let (_, chk) = check_pixel(&desc, &ray, t, l, ctx);
                     worst = worst.max(chk.insc_ratio);
                 }

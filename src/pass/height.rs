@@ -59,10 +59,11 @@
 //!
 //! Where u is the same along a row (a camera upright in the scene), the row forms g' as
 //! exp2m1(y')·(n·c) with c = 1/(b2·u) a constant of the row: no division per pixel
-//! ([`RowFactor`], which gives its ranges and its error, about one ULP more). There, with
-//! one Henyey–Greenstein phase function whose error bound allows it, n² and the phase
-//! function's q are polynomials in the column's u and no direction is formed, in every
-//! depth convention ([`LinearRow`], [`PhaseTerm::linear_error`]).
+//! ([`RowFactor`], which gives its ranges and its error, about one ULP more). With one
+//! Henyey–Greenstein phase function whose error bound allows it, n², the phase
+//! function's q and (where it varies) u are polynomials in the column's u and no
+//! direction is formed, in every row and depth convention ([`LinearRow`],
+//! [`PhaseTerm::linear_error`]).
 
 use super::camera::{DepthPlan, FramePlan, RowPlan};
 use super::RowColour;
@@ -555,8 +556,8 @@ pub(crate) struct HeightPass {
     /// the division: t·n = depth ≤ T_LO·n_max gives τ ≤ 2⁻⁴⁰ as above, and the product
     /// depth·(1/n) is not formed subnormal.
     d_lo: f32,
-    /// The one phase function's q is formed from cos θ in rows that take [`RowFactor`]
-    /// ([`LinearRow`]; any depth convention): a frame with one phase function of β = 0
+    /// The one phase function's q is formed from cos θ in every row ([`LinearRow`]; any
+    /// depth convention, rolled cameras too): a frame with one phase function of β = 0
     /// (Henyey–Greenstein) whose [`PhaseTerm::linear_error`] is within
     /// [`LINEAR_PHASE_BUDGET`].
     phase_linear: bool,
@@ -809,7 +810,9 @@ impl HeightPass {
         // (|rd| ≥ n_min), for `PhaseTerm::linear_error` and `LinearRow`'s n².
         let eta = (dot(du, d0).abs() + dot(du, dv).abs()) / (norm(du) * n_min);
         let row_uniform = row_uniform && uni_lo <= f64::from(UNI_HI);
-        let phase_linear = row_uniform
+        // (Any row: n² = |d|² within 2^±60 keeps the quadratic in f32's range.)
+        let phase_linear = n_min >= 2f64.powi(-30)
+            && n_max <= 2f64.powi(30)
             && n_phases == 1
             && eta <= LINEAR_ETA_MAX
             && phases[0].linear_error(eta) <= LINEAR_PHASE_BUDGET;
@@ -1004,7 +1007,10 @@ const LINEAR_ETA_MAX: f64 = 0.015_625;
 /// The coefficients of one row's polynomials in u ([`HeightPass::phase_linear`]): n² =
 /// (a2·u + a1)·u + a0 and q = (k1·u + k0)·(1/n) + q0, from the row's direction rd + u·d_u
 /// (in f64, each rounded once): no direction per pixel, and q in two fused
-/// multiply-adds where |v + w|² took six (README "Zen 4, fifty-sixth session").
+/// multiply-adds where |v + w|² took six (README "Zen 4, fifty-sixth session"). In a row
+/// whose b·u varies (a rolled camera: no [`RowFactor`]), u = dot(d, up) = e1·u + e0 too:
+/// for an axis up, e1 and e0 are that axis's components of d_u and rd, and the fused
+/// multiply-add gives the bits of the direction's component (`direction`).
 #[derive(Clone, Copy, Default)]
 struct LinearRow {
     a2: f32,
@@ -1013,10 +1019,13 @@ struct LinearRow {
     k1: f32,
     k0: f32,
     q0: f32,
+    e1: f32,
+    e0: f32,
 }
 
 impl LinearRow {
-    fn new(plan: &FramePlan, rp: &RowPlan, p: &PhaseTerm) -> LinearRow {
+    fn new(hp: &HeightPass, plan: &FramePlan, rp: &RowPlan) -> LinearRow {
+        let p = &hp.phases[0];
         let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
         let (du, rd, w) = (
             plan.d_u.map(f64::from),
@@ -1024,6 +1033,12 @@ impl LinearRow {
             p.w.map(f64::from),
         );
         let gg = f64::from(p.gg);
+        let (e1, e0) = if hp.axis < 3 {
+            (plan.d_u[hp.axis], rp.d[hp.axis])
+        } else {
+            let up = hp.up.map(f64::from);
+            (dot(du, up) as f32, dot(rd, up) as f32)
+        };
         LinearRow {
             a2: dot(du, du) as f32,
             a1: (2.0 * dot(du, rd)) as f32,
@@ -1031,6 +1046,8 @@ impl LinearRow {
             k1: (2.0 * gg * dot(du, w)) as f32,
             k0: (2.0 * gg * dot(rd, w)) as f32,
             q0: (f64::from(p.base) + gg * (1.0 + dot(w, w))) as f32,
+            e1,
+            e0,
         }
     }
 }
@@ -1068,8 +1085,8 @@ fn row<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const FAST:
     let rp = plan.row(y);
     let rf = RowFactor::of(hp, &rp);
     // The row's polynomials in u where it takes the linear form of q (see `block_of`).
-    let lr = if PH == 1 && hp.phase_linear && rf.on {
-        LinearRow::new(plan, &rp, &hp.phases[0])
+    let lr = if PH == 1 && hp.phase_linear {
+        LinearRow::new(hp, plan, &rp)
     } else {
         LinearRow::default()
     };
@@ -1260,10 +1277,10 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     }
     // The linear form of q (`HeightPass::phase_linear`): n² and q from the column's u, no
     // direction; q in the first of `colours`' three buffers.
-    let linear = PH == 1 && hp.phase_linear && rf.on;
-    // (One copy of the loop per depth convention, each a literal.)
+    let linear = PH == 1 && hp.phase_linear;
+    // (One copy of the loop per depth convention and kind of row, each a literal.)
     macro_rules! linear_loop {
-        ($depth:expr) => {{
+        ($uni:expr, $depth:expr) => {{
             let mut x = x_start;
             for ((((dv, uv), y), g), cw) in depth
                 .chunks_exact(n_lanes)
@@ -1280,13 +1297,20 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
                     .mul_add(W::splat(lr.a2), W::splat(lr.a1))
                     .mul_add(u, W::splat(lr.a0));
                 let inv_n = rsqrt(n2);
-                // As `geometry` in a row of `RowFactor`.
+                // As `geometry`.
                 let t = ray_t(hp, W::load(dv), inv_n, $depth);
-                let t = Lane::min(W::splat(rf.t_hi), Lane::max(W::splat(rf.t_lo), t));
-                let yv = W::splat(rf.b2u) * t;
+                let n = n2 * inv_n;
+                let (yv, nt) = if $uni {
+                    let t = Lane::min(W::splat(rf.t_hi), Lane::max(W::splat(rf.t_lo), t));
+                    (W::splat(rf.b2u) * t, n * W::splat(rf.c))
+                } else {
+                    let up = u.mul_add(W::splat(lr.e1), W::splat(lr.e0));
+                    let t = Lane::min(W::splat(hp.t_big), Lane::max(W::splat(hp.t_lo), t));
+                    (W::away_from_zero((W::splat(hp.b2) * up) * t), n * t)
+                };
                 y_max = Lane::max(yv, y_max);
                 *y = yv;
-                *g = (n2 * inv_n) * W::splat(rf.c);
+                *g = nt;
                 cw[0] = u
                     .mul_add(W::splat(lr.k1), W::splat(lr.k0))
                     .mul_add(inv_n, W::splat(lr.q0));
@@ -1294,10 +1318,13 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
         }};
     }
     if linear {
-        match hp.depth {
-            LINEAR => linear_loop!(LINEAR),
-            DISTANCE => linear_loop!(DISTANCE),
-            _ => linear_loop!(NDC),
+        match (rf.on, hp.depth) {
+            (true, LINEAR) => linear_loop!(true, LINEAR),
+            (true, DISTANCE) => linear_loop!(true, DISTANCE),
+            (true, _) => linear_loop!(true, NDC),
+            (false, LINEAR) => linear_loop!(false, LINEAR),
+            (false, DISTANCE) => linear_loop!(false, DISTANCE),
+            (false, _) => linear_loop!(false, NDC),
         }
     } else {
         match (rf.on, hp.depth) {
