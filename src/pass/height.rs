@@ -1297,17 +1297,10 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
                     .mul_add(W::splat(lr.a2), W::splat(lr.a1))
                     .mul_add(u, W::splat(lr.a0));
                 let inv_n = rsqrt(n2);
-                // As `geometry`.
+                // As `geometry`, with u = dot(d, up) from the column's u.
                 let t = ray_t(hp, W::load(dv), inv_n, $depth);
-                let n = n2 * inv_n;
-                let (yv, nt) = if $uni {
-                    let t = Lane::min(W::splat(rf.t_hi), Lane::max(W::splat(rf.t_lo), t));
-                    (W::splat(rf.b2u) * t, n * W::splat(rf.c))
-                } else {
-                    let up = u.mul_add(W::splat(lr.e1), W::splat(lr.e0));
-                    let t = Lane::min(W::splat(hp.t_big), Lane::max(W::splat(hp.t_lo), t));
-                    (W::away_from_zero((W::splat(hp.b2) * up) * t), n * t)
-                };
+                let up = u.mul_add(W::splat(lr.e1), W::splat(lr.e0));
+                let (yv, nt) = depth_terms(hp, rf, up, n2 * inv_n, t, $uni);
                 y_max = Lane::max(yv, y_max);
                 *y = yv;
                 *g = nt;
@@ -1576,23 +1569,39 @@ fn geometry<W: PassLane>(
     let inv_n = rsqrt(n2);
     let n = n2 * inv_n;
     let t = ray_t(hp, depth, inv_n, depth_kind);
-    // Negative and short depths to T_LO (`Lane::max` is maxps: NaN, the second operand,
-    // stays NaN); rays clamped to the frame's T_BIG (`Lane::min`: NaN stays NaN). Not
-    // wide's `min`/`max`, which return the other operand for NaN.
-    if uni {
-        let t = Lane::min(W::splat(rf.t_hi), Lane::max(W::splat(rf.t_lo), t));
-        return (W::splat(rf.b2u) * t, n * W::splat(rf.c), inv_n);
-    }
+    // (Not formed where `uni`: `depth_terms` does not read it there.)
     let u = match hp.axis {
         0 => d[0],
         1 => d[1],
         2 => d[2],
         _ => crate::light::dot3(d, hp.up),
     };
+    let (y, nt) = depth_terms(hp, rf, u, n, t, uni);
+    (y, nt, inv_n)
+}
+
+/// The rest of [`geometry`] (and of the linear form's loop) from u = dot(d, up), n = |d|
+/// and t: y' and n·t, or in a row that takes [`RowFactor`] (`uni`) y' = (b2·u)·t with
+/// the row's b2·u and n·c.
+#[inline(always)]
+fn depth_terms<W: PassLane>(
+    hp: &HeightPass,
+    rf: &RowFactor,
+    u: W,
+    n: W,
+    t: W,
+    uni: bool,
+) -> (W, W) {
+    // Negative and short depths to T_LO (`Lane::max` is maxps: NaN, the second operand,
+    // stays NaN); rays clamped to the frame's T_BIG (`Lane::min`: NaN stays NaN). Not
+    // wide's `min`/`max`, which return the other operand for NaN.
+    if uni {
+        let t = Lane::min(W::splat(rf.t_hi), Lane::max(W::splat(rf.t_lo), t));
+        return (W::splat(rf.b2u) * t, n * W::splat(rf.c));
+    }
     let t = Lane::min(W::splat(hp.t_big), Lane::max(W::splat(hp.t_lo), t));
     let y = (W::splat(hp.b2) * u) * t;
-    let y = W::away_from_zero(y);
-    (y, n * t, inv_n)
+    (W::away_from_zero(y), n * t)
 }
 
 /// The fog colour (clamped) for the view directions `d · inv_n`, any number of phase

@@ -293,9 +293,8 @@ impl Scene {
     }
 
     /// Whether the own kernel forms its phase function's q = base + gg·|v + w|² from
-    /// cos θ in the frame's rows of constant b·u (a polynomial in the column's u; where
-    /// the bound on the error this adds is within 2⁻¹⁷ relative); false where it does
-    /// not run. For tests.
+    /// cos θ in the frame's rows (a polynomial in the column's u; where the bound on the
+    /// error this adds is within 2⁻¹⁷ relative); false where it does not run. For tests.
     #[doc(hidden)]
     pub fn fog_pass_linear_phase(
         &self,
