@@ -128,15 +128,13 @@ fn main() {
             }
         })
         .collect();
-    let depth_of = |values: &'static [f32]| -> Depth<'static> {
-        match convention.as_str() {
-            "distance" => Depth::distance(values),
-            "ndc" => Depth::ndc(values, near as f32, far as f32),
-            "ndc_rev" => Depth::ndc_reversed(values, near as f32, f32::INFINITY),
-            _ => Depth::linear_view(values),
-        }
+    let depth_of = |values| match convention.as_str() {
+        "distance" => Depth::distance(values),
+        "ndc" => Depth::ndc(values, near as f32, far as f32),
+        "ndc_rev" => Depth::ndc_reversed(values, near as f32, f32::INFINITY),
+        _ => Depth::linear_view(values),
     };
-    let depth: &'static [f32] = depth.leak();
+    let depth = depth.as_slice();
     let mut c = vec![0.5f32; 3 * w * h];
     // `FRAMES=n`: n frames (for a sampling profiler), printing the best frame's time.
     let frames: usize = std::env::var("FRAMES")

@@ -2070,8 +2070,8 @@ fn own_kernel_composite_of_extreme_colours() {
 
 /// The linear form of the phase function's q (`Scene::fog_pass_linear_phase`: q from
 /// cos θ, which cancels toward the peak of Henyey–Greenstein's lobe) at that peak: the
-/// sun in the middle of narrow frames of an upright or a rolled camera, no ambient light and dense
-/// fog (L_in near the fog colour, all of it the sun's), every pixel against the f64
+/// sun in the middle of narrow frames of an upright or a rolled camera, no ambient light
+/// and dense fog (L_in near the fog colour, all of it the sun's), every pixel against the f64
 /// reference with the crate's bound, in the lane widths the pass runs and in the four
 /// depth conventions. |g| up to 0.6 takes the linear form (its error bound within 2⁻¹⁷),
 /// 0.7 and 0.9 do not.
