@@ -6,6 +6,7 @@
 //! `CHUNK=k` evaluates the 65536 rays as calls of k rays each (the fixed cost per call);
 //! `N=n` evaluates n rays instead of 65536 (`N=16777216`: the streaming bench's size).
 //! `NO512=1` takes the 8-lane path on a CPU with AVX-512 (`Scene::without_avx512_dispatch`).
+//! `MIX=k` with `sky` or `stiff`: that set's ray on one ray in k, typical rays elsewhere.
 use analytic_fog::reference::peer::{PeerRays, BETA, FALLOFF};
 use analytic_fog::{
     Component, HeightFogLayer, Lighting, Outputs, Phase, Rays, Scene, SceneDesc, Sun,
@@ -25,10 +26,23 @@ fn main() {
         .and_then(|r| r.parse().ok())
         .unwrap_or(65536)
         .max(1);
-    let peer = match set {
+    let mut peer = match set {
         "sky" | "stiff" => PeerRays::crate_extreme(n, set == "stiff"),
         _ => PeerRays::new(n, extreme),
     };
+    // `MIX=k` (with `sky` or `stiff`): that set's ray on one ray in k (i % k == 0), the
+    // typical ray elsewhere: packets with a few extreme lanes among typical ones.
+    if let Some(k) = std::env::var("MIX")
+        .ok()
+        .and_then(|k| k.parse::<usize>().ok())
+    {
+        let typical = PeerRays::new(n, false);
+        for i in (0..n).filter(|i| i % k.max(1) != 0) {
+            peer.oy[i] = typical.oy[i];
+            peer.dy[i] = typical.dy[i];
+            peer.t[i] = typical.t[i];
+        }
+    }
     let (oy, dy, t, dx) = (&peer.oy, &peer.dy, &peer.t, peer.dx());
     let z = vec![0.0f32; n];
     let full = mode == "radiance";

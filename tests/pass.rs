@@ -431,7 +431,10 @@ fn large_frame_parallel_equals_single_and_eval_ray() {
         a
     };
     // The pass's own kernel: parallel = single, bit for bit.
-    assert!(scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap());
+    assert!(scene
+        .fog_pass_own_kernel(&cam, w, h, conv)
+        .unwrap()
+        .is_some());
     par_equals_single(&scene);
     // The batch API's kernel: parallel = single = `eval_ray`, bit for bit.
     let scene = scene.with_batch_kernel_pass();
@@ -504,15 +507,15 @@ fn own_kernel_within_the_accuracy_bound() {
             camera(&mut rng, w, h)
         };
         let conv = convention(&mut rng, &cam);
-        let own_frame = scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap();
-        if own_frame {
+        let frame = scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap();
+        if frame.is_some() {
             own += 1;
         } else {
             declined += 1;
         }
-        let linear = scene.fog_pass_linear_phase(&cam, w, h, conv).unwrap();
+        let linear = frame.is_some_and(|f| f.linear_phase);
         linear_frames += usize::from(linear);
-        let rows = scene.fog_pass_uniform_rows(&cam, w, h, conv).unwrap();
+        let rows = frame.map_or(0, |f| f.uniform_rows);
         uniform_frames += usize::from(rows > 0);
         uniform_rows += rows;
         let depth = depths(&mut rng, conv, w * h);
@@ -536,7 +539,7 @@ fn own_kernel_within_the_accuracy_bound() {
         // Where the own kernel runs AVX-512 lanes chosen at run time, its estimate of 1/√x
         // is AVX-512's (`vrsqrt14ps`): other last bits than the AVX2 widths, which give
         // the same bits as each other; each is held to the bound below.
-        let own_zmm = analytic_fog::avx512_dispatch() && own_frame;
+        let own_zmm = analytic_fog::avx512_dispatch() && frame.is_some();
         // The AVX2 lanes' results for the black and the white surface, RGB.
         let mut avx2 = [vec![0.0f32; 3 * n], vec![0.0f32; 3 * n]];
         for (k, (surface, planes)) in [(0.0, &black), (BIG, &white)].into_iter().enumerate() {
@@ -1483,7 +1486,11 @@ fn own_kernel_saturation_and_vanishing_terms() {
                 Camera::perspective(Vec3::new(0.0, cam_y, 0.0), fwd, Vec3::Y, 1.2, 29.0 / 7.0)
                     .unwrap();
             let conv = DepthConvention::LinearView;
-            if !scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap() {
+            if scene
+                .fog_pass_own_kernel(&cam, w, h, conv)
+                .unwrap()
+                .is_none()
+            {
                 // The frame checks decline what ρ₀ puts out of range (e.g. the camera 60
                 // above a layer with falloff 3: ρ₀ = e^-180); the batch kernel runs there.
                 continue;
@@ -1521,7 +1528,11 @@ fn own_kernel_fast_tier_within_its_budget() {
         let scene = scene(&mut rng, [0, 2, 3][case % 3]);
         let cam = camera(&mut rng, w, h);
         let conv = convention(&mut rng, &cam);
-        if !scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap() {
+        if scene
+            .fog_pass_own_kernel(&cam, w, h, conv)
+            .unwrap()
+            .is_none()
+        {
             continue;
         }
         own += 1;
@@ -1756,11 +1767,11 @@ fn own_kernel_rows_of_constant_bu_at_their_edges() {
             )
             .unwrap();
             let conv = DepthConvention::LinearView;
-            if !scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap() {
+            let Some(frame) = scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap() else {
                 continue;
-            }
+            };
             frames += 1;
-            let rows = scene.fog_pass_uniform_rows(&cam, w, h, conv).unwrap();
+            let rows = frame.uniform_rows;
             mixed += usize::from(rows > 0 && rows < h);
             let what = format!("falloff {falloff}, camera y {cam_y}, pitch {pitch}, {rows} rows");
             own_kernel_against_batch(&scene, &desc, &cam, (w, h), &depth, &what);
@@ -1816,11 +1827,11 @@ fn own_kernel_short_and_subnormal_depths() {
                         w as f32 / h as f32,
                     )
                     .unwrap();
-                    if !scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap() {
+                    let Some(frame) = scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap() else {
                         continue;
-                    }
+                    };
                     frames += 1;
-                    let rows = scene.fog_pass_uniform_rows(&cam, w, h, conv).unwrap();
+                    let rows = frame.uniform_rows;
                     general += usize::from(rows == 0);
                     unit += usize::from(rows > 0);
                     let what = format!(
@@ -1865,7 +1876,8 @@ fn own_kernel_eye_far_above_the_fog() {
                 .unwrap();
             let own = scene
                 .fog_pass_own_kernel(&cam, w, h, DepthConvention::LinearView)
-                .unwrap();
+                .unwrap()
+                .is_some();
             assert!(own, "eye {eye}, pitch {pitch}: the own kernel declined");
             let depth = saturation_depths(w * h);
             let what = format!("eye {eye}, pitch {pitch}");
@@ -1932,7 +1944,10 @@ fn nan_depth_frame(
             reversed: true,
         },
     ] {
-        assert!(scene.fog_pass_own_kernel(cam, w, h, conv).unwrap());
+        assert!(scene
+            .fog_pass_own_kernel(cam, w, h, conv)
+            .unwrap()
+            .is_some());
         // (Reversed-Z: the sky at 0.)
         let other = match conv {
             DepthConvention::NdcZeroToOne { .. } if other > 1.0 => 0.0,
@@ -2011,7 +2026,10 @@ fn own_kernel_composite_of_extreme_colours() {
             sun.radiance = Vec3::splat(radiance);
         }
         let scene = Scene::new(desc.clone()).unwrap();
-        assert!(scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap());
+        assert!(scene
+            .fog_pass_own_kernel(&cam, w, h, conv)
+            .unwrap()
+            .is_some());
         let d = Depth {
             values: &depth,
             convention: conv,
@@ -2068,13 +2086,13 @@ fn own_kernel_composite_of_extreme_colours() {
     assert!(checked >= 5 * 3 * n * 9 / 10, "{checked} channels checked");
 }
 
-/// The linear form of the phase function's q (`Scene::fog_pass_linear_phase`: q from
-/// cos θ, which cancels toward the peak of Henyey–Greenstein's lobe) at that peak: the
-/// sun in the middle of narrow frames of an upright or a rolled camera, no ambient light
-/// and dense fog (L_in near the fog colour, all of it the sun's), every pixel against the f64
-/// reference with the crate's bound, in the lane widths the pass runs and in the four
-/// depth conventions. |g| up to 0.6 takes the linear form (its error bound within 2⁻¹⁷),
-/// 0.7 and 0.9 do not.
+/// The linear form of the phase function's q (`linear_phase` of
+/// `Scene::fog_pass_own_kernel`: q from cos θ, which cancels toward the peak of
+/// Henyey–Greenstein's lobe) at that peak: the sun in the middle of narrow frames of an
+/// upright or a rolled camera, no ambient light and dense fog (L_in near the fog colour,
+/// all of it the sun's), every pixel against the f64 reference with the crate's bound, in
+/// the lane widths the pass runs and in the four depth conventions. |g| up to 0.6 takes
+/// the linear form (its error bound within 2⁻¹⁷), 0.7 and 0.9 do not.
 #[test]
 fn linear_phase_form_within_the_bound_at_the_peak() {
     let mut rng = Rng(0x5eed_0056);
@@ -2158,7 +2176,10 @@ fn linear_phase_form_within_the_bound_at_the_peak() {
             ndc(0.1, f64::INFINITY, true),
         ] {
             assert_eq!(
-                scene.fog_pass_linear_phase(&cam, w, h, conv).unwrap(),
+                scene
+                    .fog_pass_own_kernel(&cam, w, h, conv)
+                    .unwrap()
+                    .is_some_and(|f| f.linear_phase),
                 linear,
                 "g {g}, rolled {rolled}, {conv:?}"
             );

@@ -261,9 +261,9 @@ impl Scene {
         Ok(Some(counts))
     }
 
-    /// True if [`Scene::fog_pass`] runs its own one-layer kernel (`height.rs`) for this
-    /// camera, frame size and depth convention, false if the batch API's. For tests and
-    /// benchmarks.
+    /// What [`Scene::fog_pass`] runs for this camera, frame size and depth convention:
+    /// `Some` where its own one-layer kernel (`height.rs`), with the choices it makes for
+    /// the frame, `None` where the batch API's. For tests and benchmarks.
     #[doc(hidden)]
     pub fn fog_pass_own_kernel(
         &self,
@@ -271,41 +271,13 @@ impl Scene {
         width: usize,
         height: usize,
         convention: DepthConvention,
-    ) -> Result<bool, PassError> {
+    ) -> Result<Option<OwnKernelFrame>, PassError> {
         Ok(self
             .own_height_pass(camera, width, height, convention)?
-            .is_some())
-    }
-
-    /// How many rows of the frame the own kernel runs with a constant b·u (its
-    /// `RowFactor`: a product for the division of g'); 0 where it does not run. For tests.
-    #[doc(hidden)]
-    pub fn fog_pass_uniform_rows(
-        &self,
-        camera: &Camera,
-        width: usize,
-        height: usize,
-        convention: DepthConvention,
-    ) -> Result<usize, PassError> {
-        Ok(self
-            .own_height_pass(camera, width, height, convention)?
-            .map_or(0, |(plan, hp)| hp.uniform_rows(&plan, height)))
-    }
-
-    /// Whether the own kernel forms its phase function's q = base + gg·|v + w|² from
-    /// cos θ in the frame's rows (a polynomial in the column's u; where the bound on the
-    /// error this adds is within 2⁻¹⁷ relative); false where it does not run. For tests.
-    #[doc(hidden)]
-    pub fn fog_pass_linear_phase(
-        &self,
-        camera: &Camera,
-        width: usize,
-        height: usize,
-        convention: DepthConvention,
-    ) -> Result<bool, PassError> {
-        Ok(self
-            .own_height_pass(camera, width, height, convention)?
-            .is_some_and(|(_, hp)| hp.phase_linear()))
+            .map(|(plan, hp)| OwnKernelFrame {
+                uniform_rows: hp.uniform_rows(&plan, height),
+                linear_phase: hp.phase_linear(),
+            }))
     }
 
     /// The frame's plan and own kernel constants where [`Scene::fog_pass`] runs the own
@@ -856,4 +828,18 @@ fn fog_row_tiled<R: RowColour>(
         let count = (packets - io.first).min(tile_packets);
         run_packets::<Wide, false, _>(scene, Some(lists.list(j)), count, &mut io);
     }
+}
+
+/// The choices of the fog pass's own one-layer kernel for a frame
+/// ([`Scene::fog_pass_own_kernel`]). For tests and benchmarks.
+#[doc(hidden)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OwnKernelFrame {
+    /// How many rows it runs with a constant b·u (its `RowFactor`: a product for the
+    /// division of g').
+    pub uniform_rows: usize,
+    /// Whether it forms its phase function's q = base + gg·|v + w|² from cos θ in the
+    /// frame's rows (a polynomial in the column's u; where the bound on the error this
+    /// adds is within 2⁻¹⁷ relative).
+    pub linear_phase: bool,
 }
