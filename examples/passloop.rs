@@ -22,7 +22,8 @@
 //! `DEPTHS=k` replaces the lower half's depths, for extreme data: `zero` (0), `subnormal`
 //! (1e-40 to 1e-38), `tiny` (1e-30), `huge` (1e30), `max` (f32::MAX), `sky` (every pixel
 //! +∞). `TILT=1` rolls the camera a little (its up +Y + 0.05·X), so that no row has a
-//! constant dot(d, up) and every row takes the general form (no `RowFactor`).
+//! constant dot(d, up) and every row takes the general form (no `RowFactor`). `ORTHO=1`
+//! makes the camera orthographic (4 units high; the pass's batch-kernel path).
 //! `FALLOFF=b` sets the layer's falloff (default 0.1) and `SCALE=s` multiplies its
 //! scattering coefficients (default 1), for scanning extreme media.
 
@@ -81,17 +82,19 @@ fn main() {
     // below 1e-19 everywhere in the frame).
     let eye_y = env_f32("EYE_Y", 2.0);
     let tilt = std::env::var("TILT").is_ok_and(|v| v == "1");
-    let cam = Camera::perspective(
-        Vec3::new(0.0, eye_y, 0.0),
-        Vec3::new(0.0, -0.15, -1.0).normalize(),
-        if tilt {
-            Vec3::new(0.05, 1.0, 0.0)
-        } else {
-            Vec3::Y
-        },
-        1.0,
-        w as f32 / h as f32,
-    )
+    let up = if tilt {
+        Vec3::new(0.05, 1.0, 0.0)
+    } else {
+        Vec3::Y
+    };
+    let forward = Vec3::new(0.0, -0.15, -1.0).normalize();
+    let aspect = w as f32 / h as f32;
+    // `ORTHO=1`: an orthographic camera (4 units high) at the same place, looking the same way.
+    let cam = if std::env::var("ORTHO").is_ok_and(|v| v == "1") {
+        Camera::orthographic(Vec3::new(0.0, eye_y, 0.0), forward, up, 4.0, aspect)
+    } else {
+        Camera::perspective(Vec3::new(0.0, eye_y, 0.0), forward, up, 1.0, aspect)
+    }
     .unwrap();
     let depths = std::env::var("DEPTHS").unwrap_or_default();
     let depth: Vec<f32> = (0..w * h)
