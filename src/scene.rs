@@ -746,7 +746,8 @@ impl Scene {
     /// This scene with the framebuffer pass running the batch API's kernel on every frame,
     /// so that each pixel is bit-identical to [`Scene::eval_ray`] for its ray (see
     /// [`crate::pass`]); by default, frames of one height fog layer seen through a
-    /// perspective camera run the pass's own, cheaper kernel, which agrees with the batch
+    /// perspective camera (or an upright orthographic one) run the pass's own, cheaper
+    /// kernel, which agrees with the batch
     /// API within the accuracy bound rather than bit for bit.
     pub fn with_batch_kernel_pass(mut self) -> Scene {
         self.exact_pass = true;

@@ -160,6 +160,24 @@ fn upright_camera(rng: &mut Rng, w: usize, h: usize, up: Vec3) -> Camera {
     Camera::perspective(pos, fwd, up, rng.range(0.2, 2.8), w as f32 / h as f32).unwrap()
 }
 
+/// An orthographic camera upright in a scene whose up is the axis `up` (its horizontal
+/// axis ⊥ up exactly): every pixel of a row starts at the row's height, the frames the own
+/// kernel runs with the density per row.
+fn upright_ortho_camera(rng: &mut Rng, w: usize, h: usize, up: Vec3) -> Camera {
+    let pos = Vec3::new(
+        rng.range(-50.0, 50.0),
+        rng.range(-5.0, 30.0),
+        rng.range(-50.0, 50.0),
+    );
+    let fwd = loop {
+        let f = rng.unit();
+        if f.cross(up).length() > 0.1 {
+            break f;
+        }
+    };
+    Camera::orthographic(pos, fwd, up, rng.range(1.0, 100.0), w as f32 / h as f32).unwrap()
+}
+
 fn convention(rng: &mut Rng, cam: &Camera) -> DepthConvention {
     let persp = cam.projection() == Projection::Perspective;
     match rng.below(4) {
@@ -449,7 +467,8 @@ fn large_frame_parallel_equals_single_and_eval_ray() {
     }
 }
 
-/// The pass's own one-layer kernel (perspective cameras, `Scene::fog_pass_own_kernel`)
+/// The pass's own one-layer kernel (perspective and upright orthographic cameras,
+/// `Scene::fog_pass_own_kernel`)
 /// against the independent f64 reference with the crate's bound
 /// (`reference::check_sample`): L_in is the result for a black surface (exactly), T is
 /// recovered from a surface of 2^120 (2^120·T + L_in, rounded once, minus L_in in f64),
@@ -470,6 +489,7 @@ fn own_kernel_within_the_accuracy_bound() {
     let (mut dt_max, mut dl_max) = (0.0f32, 0.0f64);
     let (mut dz_t, mut dz_l) = (0.0f32, 0.0f64);
     let (mut linear_frames, mut dz_l_linear, mut worst_linear) = (0usize, 0.0f64, 0.0f64);
+    let (mut ortho_frames, mut worst_ortho) = (0usize, 0.0f64);
     for case in 0..240 {
         let (w, h) = SIZES[case % SIZES.len()];
         let kind = [0, 2, 3][case % 3];
@@ -496,20 +516,26 @@ fn own_kernel_within_the_accuracy_bound() {
         }
         let scene = Scene::new(desc.clone()).unwrap();
         // Every other frame from an upright camera (the scene's up, or +y where that is
-        // not an axis).
+        // not an axis), every other one of those orthographic.
         let cam = if case % 2 == 0 {
             let up = [Vec3::X, Vec3::Y, Vec3::Z]
                 .into_iter()
                 .find(|&a| a == desc.up)
                 .unwrap_or(Vec3::Y);
-            upright_camera(&mut rng, w, h, up)
+            if case % 4 == 2 {
+                upright_ortho_camera(&mut rng, w, h, up)
+            } else {
+                upright_camera(&mut rng, w, h, up)
+            }
         } else {
             camera(&mut rng, w, h)
         };
         let conv = convention(&mut rng, &cam);
         let frame = scene.fog_pass_own_kernel(&cam, w, h, conv).unwrap();
+        let ortho = frame.is_some() && cam.projection() == Projection::Orthographic;
         if frame.is_some() {
             own += 1;
+            ortho_frames += usize::from(ortho);
         } else {
             declined += 1;
         }
@@ -612,6 +638,9 @@ fn own_kernel_within_the_accuracy_bound() {
             if linear {
                 worst_linear = worst_linear.max(chk.trans_ratio.max(chk.insc_ratio));
             }
+            if ortho {
+                worst_ortho = worst_ortho.max(chk.trans_ratio.max(chk.insc_ratio));
+            }
             let scale = r.colour.iter().cloned().fold(1e-30, f64::max);
             if own_zmm {
                 // The AVX2 lanes' results: within the bound too, and near the AVX-512
@@ -673,8 +702,10 @@ fn own_kernel_within_the_accuracy_bound() {
          bound {worst:.3}; vs batch API: max |dT| {dt_max:.2e}, max |dL|/C {dl_max:.2e}; \
          AVX-512 vs AVX2 lanes: max |dT| {dz_t:.2e}, max |dL|/C {dz_l:.2e}; \
          {linear_frames} frames with the linear phase form (worst ratio {worst_linear:.3}), \
-         AVX-512 vs AVX2 max |dL|/C {dz_l_linear:.2e}"
+         AVX-512 vs AVX2 max |dL|/C {dz_l_linear:.2e}; {ortho_frames} orthographic frames \
+         (worst ratio {worst_ortho:.3})"
     );
+    assert!(ortho_frames >= 15, "{ortho_frames} orthographic frames");
     assert!(
         linear_frames >= 3,
         "{linear_frames} frames with the linear phase form"

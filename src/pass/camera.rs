@@ -429,7 +429,7 @@ pub(crate) struct FramePlan {
 /// The parts of a pixel's ray that are constant along a row.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct RowPlan {
-    o: [f32; 3],
+    pub(super) o: [f32; 3],
     pub(super) d: [f32; 3],
 }
 

@@ -4,7 +4,11 @@
 //!
 //! All rays of such a frame start at the eye, so the density there, ρ₀ = e^(−b·(y₀ − h0)),
 //! is a constant of the frame: it is computed once, in f64, and folded into the extinction,
-//! K_c = σ_c · ρ₀. Per pixel, with n = |d|, u = dot(d, up), Δ = b·u·t:
+//! K_c = σ_c · ρ₀. (An orthographic camera upright in the scene, with an axis up and linear
+//! depth, has rays that start on the camera plane at one height per row: there ρ₀ and K_c
+//! are constants of the row, formed the same way per row, [`HeightPass::for_row`], and
+//! the ranges below hold over the rows' heights.) Per pixel, with n = |d|, u = dot(d, up),
+//! Δ = b·u·t:
 //!
 //!   τ_c = K_c · n · t · E(Δ),  E(Δ) = (1 − e^(−Δ))/Δ = expm1(y)/y with y = −Δ,
 //!
@@ -200,6 +204,17 @@ impl PhaseTerm {
     fn eval<W: PassLane>(&self, d: [W; 3], inv_n: W, beta: bool) -> W {
         let (w, c) = self.prepare(d, inv_n, beta);
         self.finish(w, c, beta)
+    }
+
+    /// p/α for the unit view direction `v`, in f64: [`PhaseTerm::eval`]'s value for an
+    /// orthographic frame, whose rays all share it.
+    fn value(&self, v: [f64; 3]) -> f64 {
+        let w: [f64; 3] = core::array::from_fn(|i| v[i] + f64::from(self.w[i]));
+        let q =
+            f64::from(self.base) + f64::from(self.gg) * (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+        let c =
+            v[0] * f64::from(self.s[0]) + v[1] * f64::from(self.s[1]) + v[2] * f64::from(self.s[2]);
+        (1.0 + f64::from(self.beta_rel) * c * c) * q.powf(-1.5)
     }
 
     /// The view direction's part of [`PhaseTerm::eval`]: v + w (v = d·inv_n) and, where
@@ -566,6 +581,15 @@ pub(crate) struct HeightPass {
     row_uniform: bool,
     /// The least |b2·u| of a row that takes [`RowFactor`]: 2⁻³⁰ and max_c k_c·n_max·2⁻²⁰.
     uni_lo: f32,
+    /// An orthographic camera upright in the scene (an axis up, the camera plane's
+    /// horizontal axis level): the rays share one direction and start on the camera plane,
+    /// at one height per row, so ρ₀, hence `k` and `k2`, is a constant of the row
+    /// ([`HeightPass::for_row`]), not of the frame.
+    row_density: bool,
+    /// σ_c (f64), the falloff and the base height, for [`HeightPass::for_row`].
+    sigma: [f64; 3],
+    b: f64,
+    h0: f64,
     /// g' is raised to this where it is not 0: 2⁻³⁰/max_c max(|k_c|, |k2_c|), so that
     /// g' below it gives τ ≤ 2⁻³⁰ (T = 1 and L_in = 0 in f32, as for the g' raised), and
     /// every channel's k_c·g' stays normal (channels within 2⁷⁰ of the largest). Only
@@ -658,13 +682,11 @@ const NDC: usize = 2;
 
 impl HeightPass {
     /// The frame's constants, or `None` where this kernel does not apply: an orthographic
-    /// camera, anything but one height fog layer, or constants outside the ranges of the
+    /// camera that is not upright in the scene (see `row_density`) or takes NDC depth,
+    /// anything but one height fog layer, or constants outside the ranges of the
     /// module documentation (an eye so far above or below the fog that K_c = σ_c·ρ₀
     /// leaves [1e-30, 1e30], or K_c below about 2e-31·|b|).
     pub(crate) fn new(scene: &Scene, plan: &FramePlan) -> Option<HeightPass> {
-        if plan.ortho {
-            return None;
-        }
         let single = Single::of(scene)?;
         if single.n_phases > MAX_PHASES {
             return None;
@@ -683,26 +705,42 @@ impl HeightPass {
         let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
         let norm = |a: [f64; 3]| dot(a, a).sqrt();
         let (o, d0, du, dv, upd) = (f(plan.o0), f(plan.d0), f(plan.d_u), f(plan.d_v), f(up));
-        // |d0 + u·d_u + v·d_v| over u, v in [-1, 1]: at most the sum of the norms, at least
-        // the distance of the plane d0 + span(d_u, d_v) from the origin.
-        let n_max = norm(d0) + norm(du) + norm(dv);
-        let cross = [
-            du[1] * dv[2] - du[2] * dv[1],
-            du[2] * dv[0] - du[0] * dv[2],
-            du[0] * dv[1] - du[1] * dv[0],
-        ];
-        let n_min = dot(d0, cross).abs() / norm(cross);
         let b = f64::from(layer.b);
-        let a0 = b * (dot(o, upd) - f64::from(layer.h0));
-        // ln K_c = ln σ_c − a0 (K_c itself may leave even f64's range).
-        let ln_k: Vec<f64> = layer
-            .sigma_t
-            .iter()
-            .filter(|&&s| s > 0.0)
-            .map(|&s| f64::from(s).ln() - a0)
-            .collect();
+        let h0 = f64::from(layer.h0);
+        // The heights the rays start at, as b·(y − h0): the eye's; for an orthographic
+        // camera, the rows' (each row's origin, `FramePlan::row`, whose height every
+        // pixel of the row shares where the camera plane's horizontal axis is level:
+        // o = u·o_u + row.o with o_u[axis] = 0, exactly), within those at v = ±1 (the
+        // rows' v lie between, and their heights, one multiply-add each, are monotone in
+        // v). Not a level axis, a general up or an NDC depth: the batch kernel.
+        let (a0_min, a0_max, n_min, n_max) = if plan.ortho {
+            if axis == 3 || plan.o_u[axis] != 0.0 || !matches!(plan.depth, DepthPlan::Linear) {
+                return None;
+            }
+            let y = |v: f32| f64::from(Lane::mul_add(v, plan.o_v[axis], plan.o0[axis]));
+            let (a, c) = (b * (y(-1.0) - h0), b * (y(1.0) - h0));
+            // One direction for every ray (d_u = d_v = 0).
+            (a.min(c), a.max(c), norm(d0), norm(d0))
+        } else {
+            let a0 = b * (dot(o, upd) - h0);
+            // |d0 + u·d_u + v·d_v| over u, v in [-1, 1]: at most the sum of the norms, at
+            // least the distance of the plane d0 + span(d_u, d_v) from the origin.
+            let n_max = norm(d0) + norm(du) + norm(dv);
+            let cross = [
+                du[1] * dv[2] - du[2] * dv[1],
+                du[2] * dv[0] - du[0] * dv[2],
+                du[0] * dv[1] - du[1] * dv[0],
+            ];
+            (a0, a0, dot(d0, cross).abs() / norm(cross), n_max)
+        };
+        // ln K_c = ln σ_c − a0 (K_c itself may leave even f64's range), over the frame's
+        // heights.
+        let positive = || layer.sigma_t.iter().filter(|&&s| s > 0.0);
+        let ln_k: Vec<f64> = positive().map(|&s| f64::from(s).ln() - a0_min).collect();
         let ln_k_max = ln_k.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-        let ln_k_min = ln_k.iter().cloned().fold(f64::INFINITY, f64::min);
+        let ln_k_min = positive()
+            .map(|&s| f64::from(s).ln() - a0_max)
+            .fold(f64::INFINITY, f64::min);
         // The frame's T_BIG (module documentation): K_max·n_max·T_BIG, |b|·n_max·T_BIG
         // and n_max·T_BIG within 1e37, T_BIG at most T_BIG_MAX.
         let mut ln_t_big = f64::from(T_BIG_MAX).ln().min(1e37f64.ln() - n_max.ln());
@@ -718,7 +756,8 @@ impl HeightPass {
         let ok = n_min.is_finite()
             && n_min > 0.0
             && n_max.is_finite()
-            && a0.is_finite()
+            && a0_min.is_finite()
+            && a0_max.is_finite()
             && t_big.is_finite()
             && t_big >= 1.0
             && (ln_k.is_empty()
@@ -763,16 +802,9 @@ impl HeightPass {
         } else {
             2f64.powi(-30).max(k_max * n_max * 2f64.powi(-20))
         };
-        // (σ_c = 0 stays 0: e^(−a0) may be +∞ here, where no channel has extinction.)
-        let k64 = layer.sigma_t.map(|s| {
-            if s > 0.0 {
-                f64::from(s) * (-a0).exp()
-            } else {
-                0.0
-            }
-        });
-        let k = k64.map(|k| (k * core::f64::consts::LOG2_E) as f32);
-        let k2 = k64.map(|k| (-k * core::f64::consts::LOG2_E * core::f64::consts::LOG2_E) as f32);
+        let sigma = layer.sigma_t.map(f64::from);
+        // (An orthographic frame's rows set their own: `for_row`.)
+        let (k, k2) = channel_constants(sigma, a0_min);
         // As `FramePlan::ray`: standard z = n / (1 − depth·k), sky at depth ≥ 1; reversed
         // z = n / (depth·k + q), sky at depth ≤ 0.
         let (depth, ndc) = match plan.depth {
@@ -786,7 +818,7 @@ impl HeightPass {
                     [n, -k, 1.0, 1.0, 1.0]
                 },
             ),
-            DepthPlan::NdcOrthographic { .. } => return None,
+            DepthPlan::NdcOrthographic { .. } => return None, // (declined above)
         };
         let mut phases = [PhaseTerm::default(); MAX_PHASES];
         let mut n_phases = 0;
@@ -811,20 +843,43 @@ impl HeightPass {
         let eta = (dot(du, d0).abs() + dot(du, dv).abs()) / (norm(du) * n_min);
         let row_uniform = row_uniform && uni_lo <= f64::from(UNI_HI);
         // (Any row: n² = |d|² within 2^±60 keeps the quadratic in f32's range.)
-        let phase_linear = n_min >= 2f64.powi(-30)
+        let phase_linear = !plan.ortho
+            && n_min >= 2f64.powi(-30)
             && n_max <= 2f64.powi(30)
             && n_phases == 1
             && eta <= LINEAR_ETA_MAX
             && phases[0].linear_error(eta) <= LINEAR_PHASE_BUDGET;
         let lerp = colour_max.iter().all(|&c| c <= LERP_COLOUR_MAX);
+        // An orthographic frame's rays share one direction, so the sun's phase functions
+        // take one value: folded into the constant fog colour (in f64, rounded once; the
+        // bounds above still hold), the frame runs as one without a sun (no phase function
+        // per pixel).
+        let mut colour = layer.colour_const;
+        if plan.ortho && n_phases > 0 {
+            let v = d0.map(|x| x / norm(d0));
+            colour = core::array::from_fn(|j| {
+                let sun: f64 = phases[..n_phases]
+                    .iter()
+                    .map(|p| p.value(v) * f64::from(p.k[j]))
+                    .sum();
+                (f64::from(layer.colour_const[j]) + sun) as f32
+            });
+            phases = [PhaseTerm::default(); MAX_PHASES];
+            n_phases = 0;
+        }
         Some(HeightPass {
-            grey: k[0] == k[1] && k[1] == k[2],
+            // (Equal σ_c give equal constants in every row.)
+            grey: if plan.ortho {
+                sigma[0] == sigma[1] && sigma[1] == sigma[2]
+            } else {
+                k[0] == k[1] && k[1] == k[2]
+            },
             k,
             k2,
             b2: (-f64::from(layer.b) * core::f64::consts::LOG2_E) as f32,
             up,
             axis,
-            colour: layer.colour_const,
+            colour,
             phases,
             n_phases,
             beta: phases.iter().any(|p| p.beta != 0.0),
@@ -843,8 +898,31 @@ impl HeightPass {
             phase_linear,
             uni_lo: uni_lo as f32,
             g_lo,
+            row_density: plan.ortho,
+            sigma,
+            b,
+            h0,
         })
     }
+
+    /// This frame's constants for a row starting at height `y` (every pixel's, see
+    /// `new`) where they depend on the row ([`HeightPass::row_density`]): K_c = σ_c·ρ₀
+    /// with the row's ρ₀, formed as the frame's K_c is elsewhere (in f64, rounded once),
+    /// within the frame's range of K (checked by `new` over the rows' heights).
+    fn for_row(&self, y: f32) -> HeightPass {
+        let (k, k2) = channel_constants(self.sigma, self.b * (f64::from(y) - self.h0));
+        HeightPass { k, k2, ..*self }
+    }
+}
+
+/// The channels' k_c = σ_c·e^(−a0)·log2(e) and k2_c = −σ_c·e^(−a0)·log2(e)², each rounded
+/// once from f64, for the density exponent a0 = b·(y₀ − h0) at the rays' start. (σ_c = 0
+/// stays 0: e^(−a0) may be +∞ here, where no channel has extinction.)
+fn channel_constants(sigma: [f64; 3], a0: f64) -> ([f32; 3], [f32; 3]) {
+    let k64 = sigma.map(|s| if s > 0.0 { s * (-a0).exp() } else { 0.0 });
+    let k = k64.map(|k| (k * core::f64::consts::LOG2_E) as f32);
+    let k2 = k64.map(|k| (-k * core::f64::consts::LOG2_E * core::f64::consts::LOG2_E) as f32);
+    (k, k2)
 }
 
 impl HeightPass {
@@ -991,7 +1069,14 @@ fn rows_with<'a, R: RowColour, W: PassLane, const PH: usize, const GREY: bool, c
     let hp = *hp;
     let mut bufs = Buffers::new(&hp);
     for (k, (depth, out)) in rows.enumerate() {
-        row::<R, W, PH, GREY, FAST>(&hp, plan, us, y0 + k, depth, out, &mut bufs);
+        if hp.row_density {
+            // An orthographic frame: the row's K_c (its height's density).
+            let hr = hp.for_row(plan.row(y0 + k).o[hp.axis]);
+            bufs.k3 = W::interleaved3(if hr.fast { hr.k } else { hr.k2 });
+            row::<R, W, PH, GREY, FAST>(&hr, plan, us, y0 + k, depth, out, &mut bufs);
+        } else {
+            row::<R, W, PH, GREY, FAST>(&hp, plan, us, y0 + k, depth, out, &mut bufs);
+        }
     }
 }
 

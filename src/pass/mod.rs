@@ -15,9 +15,10 @@
 //! its packets (`cull.rs`); the list changes no result.
 //!
 //! Two kernels. The most common frame, one height fog layer and nothing else seen
-//! through a perspective camera, runs the pass's own kernel (`height.rs`): every ray
-//! starts at the eye, so the density there is a constant of the frame (computed once, in
-//! f64) and each pixel needs one `exp2m1` where the batch kernel, which takes any origin,
+//! through a perspective camera (or an orthographic one upright in the scene, with linear
+//! depth), runs the pass's own kernel (`height.rs`): every ray starts at the eye (at its
+//! row's height), so the density there is a constant of the frame (of the row; computed
+//! once, in f64) and each pixel needs one `exp2m1` where the batch kernel, which takes any origin,
 //! carries two exponentials' exponents apart; its rays are processed in stages over blocks
 //! of packets, and an interleaved RGB buffer gets T and L_in in its own layout. Its T and L_in are within the crate's accuracy bound of the f64 reference
 //! (`tests/pass.rs` checks every pixel of random frames: at most 0.654 of the bound) and
@@ -31,7 +32,7 @@
 //! batch kernel.
 //!
 //! Every other frame (several layers, fog volumes, distance fog and the other controls,
-//! orthographic cameras), and every frame of a scene made with
+//! other orthographic cameras), and every frame of a scene made with
 //! [`Scene::with_batch_kernel_pass`], runs the batch API's kernel, and a pixel's result is
 //! bit-identical to the batch API's for the ray [`Camera::pixel_ray`] returns: the pass
 //! generates the same f32 ray with the same operations, evaluates it with the same kernel
