@@ -142,10 +142,8 @@ fn camera(rng: &mut Rng, w: usize, h: usize) -> Camera {
     }
 }
 
-/// A perspective camera upright in a scene whose up is the axis `up`: every row of its
-/// frame has one u = dot(d, up) (d_u ⊥ up exactly), the rows the own kernel runs with a
-/// product for the division of g' (`RowFactor`).
-fn upright_camera(rng: &mut Rng, w: usize, h: usize, up: Vec3) -> Camera {
+/// A camera position and a forward direction at least 0.1 rad off the axis `up`.
+fn upright_pose(rng: &mut Rng, up: Vec3) -> (Vec3, Vec3) {
     let pos = Vec3::new(
         rng.range(-50.0, 50.0),
         rng.range(-5.0, 30.0),
@@ -157,6 +155,14 @@ fn upright_camera(rng: &mut Rng, w: usize, h: usize, up: Vec3) -> Camera {
             break f;
         }
     };
+    (pos, fwd)
+}
+
+/// A perspective camera upright in a scene whose up is the axis `up`: every row of its
+/// frame has one u = dot(d, up) (d_u ⊥ up exactly), the rows the own kernel runs with a
+/// product for the division of g' (`RowFactor`).
+fn upright_camera(rng: &mut Rng, w: usize, h: usize, up: Vec3) -> Camera {
+    let (pos, fwd) = upright_pose(rng, up);
     Camera::perspective(pos, fwd, up, rng.range(0.2, 2.8), w as f32 / h as f32).unwrap()
 }
 
@@ -164,17 +170,7 @@ fn upright_camera(rng: &mut Rng, w: usize, h: usize, up: Vec3) -> Camera {
 /// axis ⊥ up exactly): every pixel of a row starts at the row's height, the frames the own
 /// kernel runs with the density per row.
 fn upright_ortho_camera(rng: &mut Rng, w: usize, h: usize, up: Vec3) -> Camera {
-    let pos = Vec3::new(
-        rng.range(-50.0, 50.0),
-        rng.range(-5.0, 30.0),
-        rng.range(-50.0, 50.0),
-    );
-    let fwd = loop {
-        let f = rng.unit();
-        if f.cross(up).length() > 0.1 {
-            break f;
-        }
-    };
+    let (pos, fwd) = upright_pose(rng, up);
     Camera::orthographic(pos, fwd, up, rng.range(1.0, 100.0), w as f32 / h as f32).unwrap()
 }
 
