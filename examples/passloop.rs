@@ -23,7 +23,8 @@
 //! (1e-40 to 1e-38), `tiny` (1e-30), `huge` (1e30), `max` (f32::MAX), `sky` (every pixel
 //! +∞). `TILT=1` rolls the camera a little (its up +Y + 0.05·X), so that no row has a
 //! constant dot(d, up) and every row takes the general form (no `RowFactor`). `ORTHO=1`
-//! makes the camera orthographic (4 units high; the pass's batch-kernel path).
+//! makes the camera orthographic (4 units high); its `ndc` and `ndc_rev` depths are an
+//! orthographic rasterizer's, (z − near)/(far − near), with far 1e4 in both.
 //! `FALLOFF=b` sets the layer's falloff (default 0.1) and `SCALE=s` multiplies its
 //! scattering coefficients (default 1), for scanning extreme media.
 
@@ -116,14 +117,25 @@ fn main() {
         .collect();
     // `DEPTH=k`: the depth convention, the same view depths converted: `distance` (taken
     // as distances along the rays), `ndc` (standard, near 0.1, far 1e4) or `ndc_rev`
-    // (reversed-Z, near 0.1, infinite far); linear view depth otherwise.
+    // (reversed-Z, near 0.1, infinite far; 1e4 for an orthographic camera, which needs
+    // it finite); linear view depth otherwise.
     let convention = std::env::var("DEPTH").unwrap_or_default();
+    let ortho = cam.projection() == analytic_fog::pass::Projection::Orthographic;
     let (near, far) = (0.1f64, 1e4f64);
+    let far_rev = if ortho { far as f32 } else { f32::INFINITY };
     let depth: Vec<f32> = depth
         .iter()
         .map(|&z| {
             let z = f64::from(z);
             match convention.as_str() {
+                "ndc" | "ndc_rev" if ortho => {
+                    let s = if z.is_infinite() {
+                        1.0
+                    } else {
+                        (z - near) / (far - near)
+                    };
+                    (if convention == "ndc" { s } else { 1.0 - s }) as f32
+                }
                 "ndc" if z.is_infinite() => 1.0,
                 "ndc" => (far * (z - near) / (z * (far - near))) as f32,
                 "ndc_rev" => (near / z) as f32,
@@ -134,7 +146,7 @@ fn main() {
     let depth_of = |values| match convention.as_str() {
         "distance" => Depth::distance(values),
         "ndc" => Depth::ndc(values, near as f32, far as f32),
-        "ndc_rev" => Depth::ndc_reversed(values, near as f32, f32::INFINITY),
+        "ndc_rev" => Depth::ndc_reversed(values, near as f32, far_rev),
         _ => Depth::linear_view(values),
     };
     let depth = depth.as_slice();

@@ -485,7 +485,7 @@ fn own_kernel_within_the_accuracy_bound() {
     let (mut dt_max, mut dl_max) = (0.0f32, 0.0f64);
     let (mut dz_t, mut dz_l) = (0.0f32, 0.0f64);
     let (mut linear_frames, mut dz_l_linear, mut worst_linear) = (0usize, 0.0f64, 0.0f64);
-    let (mut ortho_frames, mut worst_ortho) = (0usize, 0.0f64);
+    let (mut ortho_frames, mut ortho_ndc, mut worst_ortho) = (0usize, 0usize, 0.0f64);
     for case in 0..240 {
         let (w, h) = SIZES[case % SIZES.len()];
         let kind = [0, 2, 3][case % 3];
@@ -532,6 +532,7 @@ fn own_kernel_within_the_accuracy_bound() {
         if frame.is_some() {
             own += 1;
             ortho_frames += usize::from(ortho);
+            ortho_ndc += usize::from(ortho && matches!(conv, DepthConvention::NdcZeroToOne { .. }));
         } else {
             declined += 1;
         }
@@ -698,10 +699,13 @@ fn own_kernel_within_the_accuracy_bound() {
          bound {worst:.3}; vs batch API: max |dT| {dt_max:.2e}, max |dL|/C {dl_max:.2e}; \
          AVX-512 vs AVX2 lanes: max |dT| {dz_t:.2e}, max |dL|/C {dz_l:.2e}; \
          {linear_frames} frames with the linear phase form (worst ratio {worst_linear:.3}), \
-         AVX-512 vs AVX2 max |dL|/C {dz_l_linear:.2e}; {ortho_frames} orthographic frames \
-         (worst ratio {worst_ortho:.3})"
+         AVX-512 vs AVX2 max |dL|/C {dz_l_linear:.2e}; {ortho_frames} orthographic frames, \
+         {ortho_ndc} of them with NDC depth (worst ratio {worst_ortho:.3})"
     );
-    assert!(ortho_frames >= 15, "{ortho_frames} orthographic frames");
+    assert!(
+        ortho_frames >= 15 && ortho_ndc >= 8,
+        "{ortho_frames} orthographic frames, {ortho_ndc} with NDC depth"
+    );
     assert!(
         linear_frames >= 3,
         "{linear_frames} frames with the linear phase form"
@@ -1549,11 +1553,21 @@ fn own_kernel_saturation_and_vanishing_terms() {
 #[test]
 fn own_kernel_fast_tier_within_its_budget() {
     let mut rng = Rng(0xfa57_0001);
-    let (mut own, mut worst_fast, mut worst_acc) = (0, 0.0f64, 0.0f64);
+    let (mut own, mut ortho, mut worst_fast, mut worst_acc) = (0, 0, 0.0f64, 0.0f64);
     for case in 0..120 {
         let (w, h) = SIZES[case % SIZES.len()];
         let scene = scene(&mut rng, [0, 2, 3][case % 3]);
-        let cam = camera(&mut rng, w, h);
+        // One frame in four from an orthographic camera upright in the scene (rows of
+        // their own density, the phase folded into the colour).
+        let cam = if case % 4 == 2 {
+            let up = [Vec3::X, Vec3::Y, Vec3::Z]
+                .into_iter()
+                .find(|&a| a == scene.desc().up)
+                .unwrap_or(Vec3::Y);
+            upright_ortho_camera(&mut rng, w, h, up)
+        } else {
+            camera(&mut rng, w, h)
+        };
         let conv = convention(&mut rng, &cam);
         if scene
             .fog_pass_own_kernel(&cam, w, h, conv)
@@ -1563,6 +1577,7 @@ fn own_kernel_fast_tier_within_its_budget() {
             continue;
         }
         own += 1;
+        ortho += usize::from(cam.projection() == Projection::Orthographic);
         let depth = depths(&mut rng, conv, w * h);
         let d = Depth {
             values: &depth,
@@ -1610,8 +1625,14 @@ fn own_kernel_fast_tier_within_its_budget() {
             }
         }
     }
-    eprintln!("own kernel: {own} frames; worst Fast {worst_fast:.2e}, Accurate {worst_acc:.2e}");
-    assert!(own >= 30, "own kernel ran {own} frames");
+    eprintln!(
+        "own kernel: {own} frames ({ortho} orthographic); worst Fast {worst_fast:.2e}, \
+         Accurate {worst_acc:.2e}"
+    );
+    assert!(
+        own >= 30 && ortho >= 10,
+        "own kernel ran {own} frames, {ortho} orthographic"
+    );
 }
 
 /// One height fog layer at base height 0 with one component, a sun and ambient light.

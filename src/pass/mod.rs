@@ -15,9 +15,8 @@
 //! its packets (`cull.rs`); the list changes no result.
 //!
 //! Two kernels. The most common frame, one height fog layer and nothing else seen
-//! through a perspective camera (or an orthographic one upright in the scene, with linear
-//! depth), runs the pass's own kernel (`height.rs`): every ray starts at the eye (at its
-//! row's height), so the density there is a constant of the frame (of the row; computed
+//! through a perspective camera (or an orthographic one upright in the scene), runs the
+//! pass's own kernel (`height.rs`): every ray starts at the eye (at its row's height), so the density there is a constant of the frame (of the row; computed
 //! once, in f64) and each pixel needs one `exp2m1` where the batch kernel, which takes any origin,
 //! carries two exponentials' exponents apart; its rays are processed in stages over blocks
 //! of packets, and an interleaved RGB buffer gets T and L_in in its own layout. Its T and L_in are within the crate's accuracy bound of the f64 reference
