@@ -13,7 +13,8 @@
 //! `PAR=1` runs the rayon pass (`Scene::fog_pass`; `RAYON_NUM_THREADS` sets its threads)
 //! instead of the calling thread's (`Scene::fog_pass_single`); `PAR=2` runs two frames at
 //! once, each on one thread. `NO512=1` keeps the build's own lanes where the x86-64-v3
-//! build would run AVX-512 ones (`Scene::without_avx512_dispatch`).
+//! build would run AVX-512 ones (`Scene::without_avx512_dispatch`). `EXACT=1` runs every
+//! frame through the batch API's kernel (`Scene::with_batch_kernel_pass`).
 //! `PLAIN=1` runs the plain pass of `benches/pass.rs` (read depth and colour, write
 //! colour; one thread) instead of the fog pass: with `H=` it shows at what frame size the
 //! frame stops fitting in the cache this process gets (the fog pass's memory stalls).
@@ -68,6 +69,12 @@ fn main() {
     // (`Scene::without_avx512_dispatch`).
     let scene = if std::env::var("NO512").is_ok_and(|v| v == "1") {
         scene.without_avx512_dispatch()
+    } else {
+        scene
+    };
+    // `EXACT=1`: the batch API's kernel on every frame (`Scene::with_batch_kernel_pass`).
+    let scene = if std::env::var("EXACT").is_ok_and(|v| v == "1") {
+        scene.with_batch_kernel_pass()
     } else {
         scene
     };

@@ -1647,31 +1647,7 @@ pub(crate) fn run_packets<L: Lane, const UNIT: bool, S: PacketIo<L>>(
         io: &mut S,
     ) {
         if let Some(single) = Single::of(scene) {
-            // In blocks, stage by stage, like `run_single`: the packets of a block are
-            // made, evaluated by `eval_block` and handed back in three loops.
-            let z = L::splat(0.0);
-            let mut ins = [PacketIn {
-                o: [z; 3],
-                d: [z; 3],
-                t: z,
-            }; BLOCK];
-            let mut outs = [PacketOut {
-                tau: [z; 3],
-                trans: [z; 3],
-                insc: [z; 3],
-            }; BLOCK];
-            let mut i = 0;
-            while i < count {
-                let m = (count - i).min(BLOCK);
-                for (k, p) in ins[..m].iter_mut().enumerate() {
-                    *p = io.make(i + k);
-                }
-                eval_block::<L, AXIS, UNIT, FAST>(&single, &ins[..m], &mut outs[..m]);
-                for (k, r) in outs[..m].iter().enumerate() {
-                    io.take(i + k, r);
-                }
-                i += m;
-            }
+            single_packets::<L, AXIS, UNIT, FAST, S>(&single, count, io);
         } else {
             let mut scratch = Vec::new();
             for i in 0..count {
@@ -1698,6 +1674,70 @@ pub(crate) fn run_packets<L: Lane, const UNIT: bool, S: PacketIo<L>>(
         (UpAxis::Axis(1), true) => go::<L, 1, UNIT, true, S>(scene, volumes, count, io),
         (UpAxis::Axis(2), true) => go::<L, 2, UNIT, true, S>(scene, volumes, count, io),
         (_, true) => go::<L, GENERAL, UNIT, true, S>(scene, volumes, count, io),
+    }
+}
+
+/// [`run_packets`] for a scene of one height fog layer (`single`, its [`Single::of`]).
+/// Lanes of any width: the framebuffer pass runs [`Zmm`](crate::math::zmm::Zmm) lanes
+/// through it where AVX-512 is chosen at run time (every function below is inlined, so
+/// that the entry point's target features reach each lane operation).
+#[inline(always)]
+#[cfg_attr(not(zmm_dispatch), allow(dead_code))] // (its one caller needs the dispatch)
+pub(crate) fn run_packets_single<L: Lane, const UNIT: bool, S: PacketIo<L>>(
+    scene: &Scene,
+    single: &Single,
+    count: usize,
+    io: &mut S,
+) {
+    match (scene.axis, scene.tier == crate::Tier::Fast) {
+        (UpAxis::Axis(0), false) => single_packets::<L, 0, UNIT, false, S>(single, count, io),
+        (UpAxis::Axis(1), false) => single_packets::<L, 1, UNIT, false, S>(single, count, io),
+        (UpAxis::Axis(2), false) => single_packets::<L, 2, UNIT, false, S>(single, count, io),
+        (_, false) => single_packets::<L, GENERAL, UNIT, false, S>(single, count, io),
+        (UpAxis::Axis(0), true) => single_packets::<L, 0, UNIT, true, S>(single, count, io),
+        (UpAxis::Axis(1), true) => single_packets::<L, 1, UNIT, true, S>(single, count, io),
+        (UpAxis::Axis(2), true) => single_packets::<L, 2, UNIT, true, S>(single, count, io),
+        (_, true) => single_packets::<L, GENERAL, UNIT, true, S>(single, count, io),
+    }
+}
+
+/// The packets of [`run_packets`] for one height fog layer: in blocks, stage by stage,
+/// like [`run_single`]: the packets of a block are made, evaluated by [`eval_block`] and
+/// handed back in three loops.
+#[inline(always)]
+fn single_packets<
+    L: Lane,
+    const AXIS: usize,
+    const UNIT: bool,
+    const FAST: bool,
+    S: PacketIo<L>,
+>(
+    single: &Single,
+    count: usize,
+    io: &mut S,
+) {
+    let z = L::splat(0.0);
+    let mut ins = [PacketIn {
+        o: [z; 3],
+        d: [z; 3],
+        t: z,
+    }; BLOCK];
+    let mut outs = [PacketOut {
+        tau: [z; 3],
+        trans: [z; 3],
+        insc: [z; 3],
+    }; BLOCK];
+    let mut i = 0;
+    while i < count {
+        let m = (count - i).min(BLOCK);
+        for (k, p) in ins[..m].iter_mut().enumerate() {
+            *p = io.make(i + k);
+        }
+        eval_block::<L, AXIS, UNIT, FAST>(single, &ins[..m], &mut outs[..m]);
+        for (k, r) in outs[..m].iter().enumerate() {
+            io.take(i + k, r);
+        }
+        i += m;
     }
 }
 

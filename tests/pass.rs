@@ -352,12 +352,20 @@ fn pass_equals_batch_api_bit_for_bit() {
             values: &depth,
             convention: conv,
         };
-        for par in [false, true] {
+        // One thread, rayon, and one thread without the run-time AVX-512 lanes (the
+        // pass's batch-kernel rows of one layer take them where `avx512_dispatch()`).
+        for mode in 0..3 {
+            let par = mode == 1;
+            let sc = if mode == 2 {
+                scene.clone().without_avx512_dispatch()
+            } else {
+                scene.clone()
+            };
             let run = |colour: ColourBuffer<'_>| {
                 if par {
-                    scene.fog_pass(&cam, w, h, d, colour)
+                    sc.fog_pass(&cam, w, h, d, colour)
                 } else {
-                    scene.fog_pass_single(&cam, w, h, d, colour)
+                    sc.fog_pass_single(&cam, w, h, d, colour)
                 }
             };
             // Interleaved RGB.
@@ -378,7 +386,7 @@ fn pass_equals_batch_api_bit_for_bit() {
                     let e = expect(i, c);
                     let ctx = || {
                         format!(
-                            "case {case}, {w}x{h}, pixel ({}, {}), channel {c}, par {par}, {conv:?}, {cam:?}, depth {}",
+                            "case {case}, {w}x{h}, pixel ({}, {}), channel {c}, mode {mode}, {conv:?}, {cam:?}, depth {}",
                             i % w,
                             i / w,
                             depth[i]

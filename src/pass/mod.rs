@@ -36,7 +36,8 @@
 //! bit-identical to the batch API's for the ray [`Camera::pixel_ray`] returns: the pass
 //! generates the same f32 ray with the same operations, evaluates it with the same kernel
 //! instantiation (rays not marked unit) at the build's width (`kernel::Wide`: 8 lanes, or
-//! 16 with AVX-512, whose lanes give the same bits as 8), pads the tail of a row into one
+//! 16 with AVX-512, whose lanes give the same bits as 8; a single layer takes 16 lanes
+//! chosen at run time where the CPU has AVX-512, as the batch API does), pads the tail of a row into one
 //! more packet as the batch loop pads its tail, and composites with one fused
 //! multiply-add per channel,
 //! `L_surface.mul_add(T, L_in)` through [`Lane::mul_add`] (fused where the target has
@@ -762,9 +763,12 @@ impl<R: RowColour, W: PassLane> PacketIo<W> for RowIo<'_, R, W> {
 /// Fogs one row: rays generated a packet at a time, the tail padded into one more packet
 /// (depth 0 in the dead lanes, whose results are dropped). Packets of [`Wide`] lanes (8,
 /// or 16 in an AVX-512 build) for the general kernel, of 8 for a single layer: its staged
-/// blocks measured 0.85× as fast with 16 lanes in the pass (`pass/fog_single_batch_kernel`
-/// 12.3 → 14.0 and 15.3 ms on Zen 4), where the general kernel gained 1.15× to 1.3×
-/// (`volumes_10` and `volumes_1000` of `benches/pass_volumes.rs`). Same bits either way.
+/// blocks measured 0.85× as fast with `wide::f32x16` lanes in the pass
+/// (`pass/fog_single_batch_kernel` 12.3 → 14.0 and 15.3 ms on Zen 4), where the general
+/// kernel gained 1.15× to 1.3× (`volumes_10` and `volumes_1000` of
+/// `benches/pass_volumes.rs`). Where AVX-512 is chosen at run time a single layer takes 16
+/// `Zmm` lanes ([`zmm_row`]): 0.80–0.82× the 8-lane time on the Intel Xeon (`EXACT=1
+/// passloop`, against `NO512=1`). Same bits in every case.
 #[inline(never)]
 fn fog_row<R: RowColour>(scene: &Scene, plan: &FramePlan, y: usize, depth: &[f32], out: R) {
     fn go<R: RowColour, W: PassLane>(
@@ -777,10 +781,53 @@ fn fog_row<R: RowColour>(scene: &Scene, plan: &FramePlan, y: usize, depth: &[f32
         let mut io = RowIo::<R, W>::new(plan, y, depth, out);
         run_packets::<W, false, _>(scene, None, depth.len().div_ceil(W::LANES), &mut io);
     }
-    if crate::kernel::Single::of(scene).is_some() {
+    if let Some(single) = crate::kernel::Single::of(scene) {
+        #[cfg(zmm_dispatch)]
+        if !scene.no_avx512_dispatch && crate::math::avx512_detected() {
+            return zmm_row::fog_row_single(scene, &single, plan, y, depth, out);
+        }
+        let _ = single;
         go::<R, f32x8>(scene, plan, y, depth, out)
     } else {
         go::<R, Wide>(scene, plan, y, depth, out)
+    }
+}
+
+/// [`fog_row`] for one height fog layer with 16 AVX-512 lanes chosen at run time
+/// ([`crate::math::zmm::Zmm`], as the batch API's `kernel::zmm`): the same packets and
+/// stages, so the same bits.
+#[cfg(zmm_dispatch)]
+#[allow(unsafe_code)]
+mod zmm_row {
+    use super::{FramePlan, RowColour, RowIo, Scene};
+    use crate::kernel::{run_packets_single, Single};
+    use crate::math::zmm::{detected, Zmm};
+    use crate::math::Lane;
+
+    pub(super) fn fog_row_single<R: RowColour>(
+        scene: &Scene,
+        single: &Single,
+        plan: &FramePlan,
+        y: usize,
+        depth: &[f32],
+        out: R,
+    ) {
+        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
+        fn go<R: RowColour>(
+            scene: &Scene,
+            single: &Single,
+            plan: &FramePlan,
+            y: usize,
+            depth: &[f32],
+            out: R,
+        ) {
+            let mut io = RowIo::<R, Zmm>::new(plan, y, depth, out);
+            let count = depth.len().div_ceil(Zmm::LANES);
+            run_packets_single::<Zmm, false, _>(scene, single, count, &mut io);
+        }
+        assert!(detected());
+        // SAFETY: the CPU has the features `go` is compiled for (asserted above).
+        unsafe { go::<R>(scene, single, plan, y, depth, out) }
     }
 }
 
