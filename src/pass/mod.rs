@@ -767,7 +767,7 @@ impl<R: RowColour, W: PassLane> PacketIo<W> for RowIo<'_, R, W> {
 /// (`pass/fog_single_batch_kernel` 12.3 → 14.0 and 15.3 ms on Zen 4), where the general
 /// kernel gained 1.15× to 1.3× (`volumes_10` and `volumes_1000` of
 /// `benches/pass_volumes.rs`). Where AVX-512 is chosen at run time a single layer takes 16
-/// `Zmm` lanes ([`zmm_row`]): 0.80–0.82× the 8-lane time on the Intel Xeon (`EXACT=1
+/// `Zmm` lanes ([`zmm_row`]): 0.80–0.85× the 8-lane time on the Intel Xeon (`EXACT=1
 /// passloop`, against `NO512=1`). Same bits in every case.
 #[inline(never)]
 fn fog_row<R: RowColour>(scene: &Scene, plan: &FramePlan, y: usize, depth: &[f32], out: R) {
@@ -812,22 +812,16 @@ mod zmm_row {
         depth: &[f32],
         out: R,
     ) {
+        // (The row's ray source holds no lanes yet: made here, outside the entry point.)
         #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
-        fn go<R: RowColour>(
-            scene: &Scene,
-            single: &Single,
-            plan: &FramePlan,
-            y: usize,
-            depth: &[f32],
-            out: R,
-        ) {
-            let mut io = RowIo::<R, Zmm>::new(plan, y, depth, out);
-            let count = depth.len().div_ceil(Zmm::LANES);
+        fn go<R: RowColour>(scene: &Scene, single: &Single, mut io: RowIo<'_, R, Zmm>) {
+            let count = io.depth.len().div_ceil(Zmm::LANES);
             run_packets_single::<Zmm, false, _>(scene, single, count, &mut io);
         }
+        let io = RowIo::<R, Zmm>::new(plan, y, depth, out);
         assert!(detected());
         // SAFETY: the CPU has the features `go` is compiled for (asserted above).
-        unsafe { go::<R>(scene, single, plan, y, depth, out) }
+        unsafe { go::<R>(scene, single, io) }
     }
 }
 
