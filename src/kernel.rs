@@ -1639,50 +1639,47 @@ pub(crate) fn run_packets<L: Lane, const UNIT: bool, S: PacketIo<L>>(
     count: usize,
     io: &mut S,
 ) {
+    if let Some(single) = Single::of(scene) {
+        return run_packets_single::<L, UNIT, S>(scene, &single, count, io);
+    }
+    // The general kernel, packet by packet (the tier is an argument of `eval_general`).
     #[inline(always)]
-    fn go<L: Lane, const AXIS: usize, const UNIT: bool, const FAST: bool, S: PacketIo<L>>(
+    fn general<L: Lane, const AXIS: usize, const UNIT: bool, S: PacketIo<L>>(
         scene: &Scene,
         volumes: Option<&[u32]>,
         count: usize,
         io: &mut S,
     ) {
-        if let Some(single) = Single::of(scene) {
-            single_packets::<L, AXIS, UNIT, FAST, S>(&single, count, io);
-        } else {
-            let mut scratch = Vec::new();
-            for i in 0..count {
-                let p = io.make(i);
-                let r = eval_general_with::<L, AXIS, UNIT>(
-                    scene,
-                    p,
-                    true,
-                    true,
-                    FAST,
-                    volumes,
-                    &mut scratch,
-                );
-                io.take(i, &r);
-            }
+        let fast = scene.tier == crate::Tier::Fast;
+        let mut scratch = Vec::new();
+        for i in 0..count {
+            let p = io.make(i);
+            let r = eval_general_with::<L, AXIS, UNIT>(
+                scene,
+                p,
+                true,
+                true,
+                fast,
+                volumes,
+                &mut scratch,
+            );
+            io.take(i, &r);
         }
     }
-    match (scene.axis, scene.tier == crate::Tier::Fast) {
-        (UpAxis::Axis(0), false) => go::<L, 0, UNIT, false, S>(scene, volumes, count, io),
-        (UpAxis::Axis(1), false) => go::<L, 1, UNIT, false, S>(scene, volumes, count, io),
-        (UpAxis::Axis(2), false) => go::<L, 2, UNIT, false, S>(scene, volumes, count, io),
-        (_, false) => go::<L, GENERAL, UNIT, false, S>(scene, volumes, count, io),
-        (UpAxis::Axis(0), true) => go::<L, 0, UNIT, true, S>(scene, volumes, count, io),
-        (UpAxis::Axis(1), true) => go::<L, 1, UNIT, true, S>(scene, volumes, count, io),
-        (UpAxis::Axis(2), true) => go::<L, 2, UNIT, true, S>(scene, volumes, count, io),
-        (_, true) => go::<L, GENERAL, UNIT, true, S>(scene, volumes, count, io),
+    match scene.axis {
+        UpAxis::Axis(0) => general::<L, 0, UNIT, S>(scene, volumes, count, io),
+        UpAxis::Axis(1) => general::<L, 1, UNIT, S>(scene, volumes, count, io),
+        UpAxis::Axis(2) => general::<L, 2, UNIT, S>(scene, volumes, count, io),
+        _ => general::<L, GENERAL, UNIT, S>(scene, volumes, count, io),
     }
 }
 
 /// [`run_packets`] for a scene of one height fog layer (`single`, its [`Single::of`]).
-/// Lanes of any width: the framebuffer pass runs [`Zmm`](crate::math::zmm::Zmm) lanes
-/// through it where AVX-512 is chosen at run time (every function below is inlined, so
-/// that the entry point's target features reach each lane operation).
+/// Lanes of any width: the framebuffer pass also calls it with
+/// [`Zmm`](crate::math::zmm::Zmm) lanes where AVX-512 is chosen at run time (every
+/// function below is inlined, so that the entry point's target features reach each lane
+/// operation).
 #[inline(always)]
-#[cfg_attr(not(zmm_dispatch), allow(dead_code))] // (its one caller needs the dispatch)
 pub(crate) fn run_packets_single<L: Lane, const UNIT: bool, S: PacketIo<L>>(
     scene: &Scene,
     single: &Single,

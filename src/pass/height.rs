@@ -4,9 +4,10 @@
 //!
 //! All rays of such a frame start at the eye, so the density there, ρ₀ = e^(−b·(y₀ − h0)),
 //! is a constant of the frame: it is computed once, in f64, and folded into the extinction,
-//! K_c = σ_c · ρ₀. (An orthographic camera upright in the scene, with an axis up, has rays that start on the camera plane at one height per row: there ρ₀ and K_c
-//! are constants of the row, formed the same way per row, [`HeightPass::for_row`], and
-//! the ranges below hold over the rows' heights.) Per pixel, with n = |d|, u = dot(d, up),
+//! K_c = σ_c · ρ₀. (An orthographic camera upright in the scene, with an axis up, has
+//! rays that start on the camera plane at one height per row: there ρ₀ and K_c are
+//! constants of the row, formed the same way per row, [`HeightPass::for_row`], and the
+//! ranges below hold over the rows' heights.) Per pixel, with n = |d|, u = dot(d, up),
 //! Δ = b·u·t:
 //!
 //!   τ_c = K_c · n · t · E(Δ),  E(Δ) = (1 − e^(−Δ))/Δ = expm1(y)/y with y = −Δ,

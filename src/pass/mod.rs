@@ -16,8 +16,9 @@
 //!
 //! Two kernels. The most common frame, one height fog layer and nothing else seen
 //! through a perspective camera (or an orthographic one upright in the scene), runs the
-//! pass's own kernel (`height.rs`): every ray starts at the eye (at its row's height), so the density there is a constant of the frame (of the row; computed
-//! once, in f64) and each pixel needs one `exp2m1` where the batch kernel, which takes any origin,
+//! pass's own kernel (`height.rs`): every ray starts at the eye (at its row's height), so
+//! the density there is a constant of the frame (of the row; computed once, in f64) and
+//! each pixel needs one `exp2m1` where the batch kernel, which takes any origin,
 //! carries two exponentials' exponents apart; its rays are processed in stages over blocks
 //! of packets, and an interleaved RGB buffer gets T and L_in in its own layout. Its T and L_in are within the crate's accuracy bound of the f64 reference
 //! (`tests/pass.rs` checks every pixel of random frames: at most 0.654 of the bound) and
@@ -37,8 +38,8 @@
 //! generates the same f32 ray with the same operations, evaluates it with the same kernel
 //! instantiation (rays not marked unit) at the build's width (`kernel::Wide`: 8 lanes, or
 //! 16 with AVX-512, whose lanes give the same bits as 8; a single layer takes 16 lanes
-//! chosen at run time where the CPU has AVX-512, as the batch API does), pads the tail of a row into one
-//! more packet as the batch loop pads its tail, and composites with one fused
+//! chosen at run time where the CPU has AVX-512, as the batch API does), pads the tail of
+//! a row into one more packet as the batch loop pads its tail, and composites with one fused
 //! multiply-add per channel,
 //! `L_surface.mul_add(T, L_in)` through [`Lane::mul_add`] (fused where the target has
 //! FMA); the own kernel composites the same way.
@@ -767,7 +768,7 @@ impl<R: RowColour, W: PassLane> PacketIo<W> for RowIo<'_, R, W> {
 /// (`pass/fog_single_batch_kernel` 12.3 → 14.0 and 15.3 ms on Zen 4), where the general
 /// kernel gained 1.15× to 1.3× (`volumes_10` and `volumes_1000` of
 /// `benches/pass_volumes.rs`). Where AVX-512 is chosen at run time a single layer takes 16
-/// `Zmm` lanes ([`zmm_row`]): 0.80–0.85× the 8-lane time on the Intel Xeon (`EXACT=1
+/// `Zmm` lanes ([`zmm_row`]): 0.80–0.86× the 8-lane time on the Intel Xeon (`EXACT=1
 /// passloop`, against `NO512=1`). Same bits in every case.
 #[inline(never)]
 fn fog_row<R: RowColour>(scene: &Scene, plan: &FramePlan, y: usize, depth: &[f32], out: R) {
