@@ -57,7 +57,7 @@ pub use crate::error::PassError;
 pub use camera::{Camera, DepthConvention, PixelRay, Projection};
 
 use crate::kernel::Wide;
-use crate::kernel::{run_packets, PacketIn, PacketIo, PacketOut};
+use crate::kernel::{run_packets, run_packets_single, PacketIn, PacketIo, PacketOut};
 use crate::math::Lane;
 use crate::scene::Scene;
 use camera::{FramePlan, RowPlan};
@@ -772,25 +772,18 @@ impl<R: RowColour, W: PassLane> PacketIo<W> for RowIo<'_, R, W> {
 /// passloop`, against `NO512=1`). Same bits in every case.
 #[inline(never)]
 fn fog_row<R: RowColour>(scene: &Scene, plan: &FramePlan, y: usize, depth: &[f32], out: R) {
-    fn go<R: RowColour, W: PassLane>(
-        scene: &Scene,
-        plan: &FramePlan,
-        y: usize,
-        depth: &[f32],
-        out: R,
-    ) {
-        let mut io = RowIo::<R, W>::new(plan, y, depth, out);
-        run_packets::<W, false, _>(scene, None, depth.len().div_ceil(W::LANES), &mut io);
-    }
     if let Some(single) = crate::kernel::Single::of(scene) {
         #[cfg(zmm_dispatch)]
         if !scene.no_avx512_dispatch && crate::math::avx512_detected() {
             return zmm_row::fog_row_single(scene, &single, plan, y, depth, out);
         }
-        let _ = single;
-        go::<R, f32x8>(scene, plan, y, depth, out)
+        // (The `Single` made once per row: `run_packets` would make it again.)
+        let mut io = RowIo::<R, f32x8>::new(plan, y, depth, out);
+        let count = depth.len().div_ceil(f32x8::LANES);
+        run_packets_single::<f32x8, false, _>(scene, &single, count, &mut io);
     } else {
-        go::<R, Wide>(scene, plan, y, depth, out)
+        let mut io = RowIo::<R, Wide>::new(plan, y, depth, out);
+        run_packets::<Wide, false, _>(scene, None, depth.len().div_ceil(Wide::LANES), &mut io);
     }
 }
 
