@@ -130,13 +130,19 @@ fn controls(c: &mut Criterion) {
     g.throughput(Throughput::Elements(N as u64));
     for (name, desc) in cases() {
         let scene = Scene::new(desc).unwrap();
-        g.bench_function(name, |b| {
-            b.iter(|| {
-                let [t0, t1, t2, l0, l1, l2] = &mut out[..] else {
-                    unreachable!()
-                };
-                scene
-                    .evaluate(
+        // `<case>_lanes8`: the build's own 8 lanes where `<case>` dispatches to 16 AVX-512
+        // lanes at run time (`analytic_fog::avx512_dispatch()`; the same kernel elsewhere).
+        let narrow = scene.clone().without_avx512_dispatch();
+        for (id, sc) in [
+            (name.to_string(), &scene),
+            (format!("{name}_lanes8"), &narrow),
+        ] {
+            g.bench_function(id, |b| {
+                b.iter(|| {
+                    let [t0, t1, t2, l0, l1, l2] = &mut out[..] else {
+                        unreachable!()
+                    };
+                    sc.evaluate(
                         black_box(&rays),
                         Outputs {
                             transmittance: Some([t0, t1, t2]),
@@ -145,8 +151,9 @@ fn controls(c: &mut Criterion) {
                         },
                     )
                     .unwrap();
-            })
-        });
+                })
+            });
+        }
     }
     g.finish();
 }

@@ -199,6 +199,23 @@ fn bench(c: &mut Criterion) {
                 .unwrap()
             })
         });
+        // The build's own 8 lanes where `x8` dispatches to 16 AVX-512 lanes at run time
+        // (`analytic_fog::avx512_dispatch()`; the same kernel elsewhere).
+        let narrow = sc.clone().without_avx512_dispatch();
+        g.bench_function("x8_lanes8", |b| {
+            b.iter(|| {
+                let [x, y, z] = &mut out;
+                narrow
+                    .evaluate(
+                        black_box(&rays),
+                        Outputs {
+                            tau: Some([x, y, z]),
+                            ..Outputs::default()
+                        },
+                    )
+                    .unwrap()
+            })
+        });
         g.bench_function("scalar", |b| {
             b.iter(|| {
                 let [x, y, z] = &mut out;

@@ -17,7 +17,7 @@ use crate::medium::height_fog::{
     depth_args_of, depth_args_tame, depth_args_tame_wide, depth_of, depth_phi, depth_with_of,
     depth_with_tame, direction_norm, falloff_kind, layer_depth, DepthArgs, RayGeom, TWO_M64,
 };
-use crate::medium::volume::{clamp_colour, Entry};
+use crate::medium::volume::{clamp_colour, Entry, OutOfLine, VolumeEval};
 use crate::ray::{Outputs, Rays};
 use crate::scene::{LayerPlan, Scene, UpAxis};
 use wide::f32x8;
@@ -628,16 +628,28 @@ fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
     volumes: Option<&[u32]>,
     scratch: &mut Vec<Entry<L>>,
 ) -> PacketOut<L> {
+    general_packet::<L, AXIS, UNIT, OutOfLine>(scene, p, want_t, want_l, fast, volumes, scratch)
+}
+
+/// The body of [`eval_general_with`], inlined: out of line there (8 lanes), inside the
+/// AVX-512 entry point's packet loop with `Zmm` lanes (`zmm::run_general`), where every
+/// function it calls must be inlined too (see ARCHITECTURE "AVX-512 chosen at run time").
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn general_packet<L: Lane, const AXIS: usize, const UNIT: bool, V: VolumeEval<L>>(
+    scene: &Scene,
+    p: PacketIn<L>,
+    want_t: bool,
+    want_l: bool,
+    fast: bool,
+    volumes: Option<&[u32]>,
+    scratch: &mut Vec<Entry<L>>,
+) -> PacketOut<L> {
     let p = &p;
-    // The tier (see `Tier`): a predictable branch per call.
-    let layer_depth = |layer: &crate::scene::LayerCore, geom: &RayGeom<L>| {
-        if fast {
-            layer_depth::<L, true>(layer, geom)
-        } else {
-            layer_depth::<L, false>(layer, geom)
-        }
-    };
-    let exp_neg = |x: L| if fast { exp_neg_fast(x) } else { exp_neg(x) };
+    // The tier (see `Tier`): a predictable branch per call. (Functions, not closures: a
+    // closure is compiled without the `#[target_feature]` of the AVX-512 entry points.)
+    let layer_depth = |layer, geom| tier_layer_depth(fast, layer, geom);
+    let exp_neg = |x: L| crate::math::exp_neg_tier(fast, x);
     let (geom, norm, dir, sun) = packet_geometry::<L, AXIS, UNIT>(
         scene.up.to_array(),
         scene.sun_dir.map(|s| s.to_array()),
@@ -678,11 +690,11 @@ fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
         // the ray moves away from every volume in that coordinate (it overflowed because
         // o and d agree in sign there, by more than any volume's extent): an empty
         // segment from the original origin. An invalid origin stays invalid (NaN).
-        let oc = [0, 1, 2].map(|c| dir[c].mul_add(start, p.o[c]));
+        let oc = rgb!(c => dir[c].mul_add(start, p.o[c]));
         #[allow(clippy::eq_op)]
         let fin = (oc[0] - oc[0]).eq(zero) & (oc[1] - oc[1]).eq(zero) & (oc[2] - oc[2]).eq(zero);
         cut = PacketIn {
-            o: [0, 1, 2].map(|c| L::select(fin, oc[c], p.o[c])),
+            o: rgb!(c => L::select(fin, oc[c], p.o[c])),
             d: dir,
             // zero.min(len): 0, or NaN for an invalid ray (found by fuzz/volumes).
             t: L::select(fin, len, zero.min(len)),
@@ -723,13 +735,9 @@ fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
     } else {
         let v = if want_l {
             let list = if ordered { Some(&mut *scratch) } else { None };
-            crate::medium::volume::eval_volumes::<L, UNIT, true>(
-                scene, &p.o, &p.d, p.t, norm, dir, sun, volumes, list,
-            )
+            V::eval::<UNIT, true>(scene, &p.o, &p.d, p.t, norm, dir, sun, volumes, list)
         } else {
-            crate::medium::volume::eval_volumes::<L, UNIT, false>(
-                scene, &p.o, &p.d, p.t, norm, dir, sun, volumes, None,
-            )
+            V::eval::<UNIT, false>(scene, &p.o, &p.d, p.t, norm, dir, sun, volumes, None)
         };
         for ch in 0..3 {
             out.tau[ch] = out.tau[ch] + v.tau[ch];
@@ -739,17 +747,20 @@ fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
     // Distance fog over the same interval: its length from the geometry (mantissa and
     // exponent, t = +∞ included; NaN for an invalid ray).
     let tau_hv = out.tau;
-    let dist_fog = scene.distance.as_ref().map(|f| {
+    // (`if let`, not `Option::map`: see `rgb!`.)
+    let dist_fog = if let Some(f) = scene.distance.as_ref() {
         let len_m = geom.n_m * geom.t_m + geom.guard;
         let len_e = geom.n_e + geom.t_e;
         let len_f = ldexp(len_m, len_e);
         let s_a = if limits.interval { limits.start } else { 0.0 };
-        let d = crate::medium::distance::depth(f, s_a, len_m, len_e, len_f, exp_neg);
+        let d = crate::medium::distance::depth(f, s_a, len_m, len_e, len_f, fast);
         for ch in 0..3 {
             out.tau[ch] = out.tau[ch] + d.tau[ch];
         }
-        (f, d, len_f)
-    });
+        Some((f, d, len_f))
+    } else {
+        None
+    };
     if want_t || want_l {
         for ch in 0..3 {
             out.trans[ch] = match &dist_fog {
@@ -885,6 +896,20 @@ fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
     out
 }
 
+/// [`layer_depth`] in the tier that `fast` names.
+#[inline(always)]
+fn tier_layer_depth<L: Lane>(
+    fast: bool,
+    layer: &crate::scene::LayerCore,
+    geom: &RayGeom<L>,
+) -> (L, L) {
+    if fast {
+        layer_depth::<L, true>(layer, geom)
+    } else {
+        layer_depth::<L, false>(layer, geom)
+    }
+}
+
 /// The ordered composition's correction to `c_bg · (1 − T)` (see `Composition`):
 /// Σ_k (c_k − c_bg) · (1 − T_k) · T(0 → s_k), returned as the sums of its positive and
 /// of its negative terms per channel (each ≥ 0). T(0 → s_k) is the transmittance of the
@@ -903,7 +928,7 @@ fn ordered_volumes<L: Lane>(
 ) -> ([L; 3], [L; 3]) {
     let zero = L::splat(0.0);
     let one = L::splat(1.0);
-    let exp_neg = |x: L| if fast { exp_neg_fast(x) } else { exp_neg(x) };
+    let exp_neg = |x: L| crate::math::exp_neg_tier(fast, x);
     let mut pos = [zero; 3];
     let mut neg = [zero; 3];
     for (k, ek) in entries.iter().enumerate() {
@@ -922,11 +947,7 @@ fn ordered_volumes<L: Lane>(
         let (t_m, t_e) = crate::math::frexp(ek.s);
         let g = RayGeom { t_m, t_e, ..*geom };
         for layer in layers {
-            let (gm, ge) = if fast {
-                layer_depth::<L, true>(layer, &g)
-            } else {
-                layer_depth::<L, false>(layer, &g)
-            };
+            let (gm, ge) = tier_layer_depth(fast, layer, &g);
             for ch in 0..3 {
                 let s = layer.sigma[ch];
                 front[ch] = front[ch] + ldexp(gm * L::splat(s.m), ge + L::splat(s.e));
@@ -935,7 +956,7 @@ fn ordered_volumes<L: Lane>(
         let t_d = match distance {
             Some((f, s_a)) => {
                 let (lm, le) = crate::math::frexp(ek.s);
-                crate::medium::distance::depth(f, s_a, lm, le, ek.s, exp_neg).trans
+                crate::medium::distance::depth(f, s_a, lm, le, ek.s, fast).trans
             }
             None => [one; 3],
         };
@@ -1006,10 +1027,7 @@ fn run<
     // general one (out of line) is made once per batch, not per packet.
     let single = Single::of(scene);
     // 16 AVX-512 lanes chosen at run time where the build has 8 (see `zmm`).
-    let zmm = single.is_some()
-        && L::LANES == 8
-        && !scene.no_avx512_dispatch
-        && crate::math::avx512_detected();
+    let zmm = L::LANES == 8 && !scene.no_avx512_dispatch && crate::math::avx512_detected();
     let full = n - n % if zmm { 16 } else { L::LANES };
     // Slices cut to `full` up front, so the loop's indexing needs no bounds checks.
     let (o0, o1, o2) = (&rays.o[0][..full], &rays.o[1][..full], &rays.o[2][..full]);
@@ -1056,6 +1074,14 @@ fn run<
         } else {
             run_single::<L, AXIS, UNIT, WANT_T, WANT_L, FAST>(single, rays, outs);
         }
+    } else if zmm {
+        #[cfg(zmm_dispatch)]
+        zmm::run_general::<AXIS, UNIT, WANT_T, WANT_L, FAST>(
+            scene,
+            [o0, o1, o2, d0, d1, d2, t],
+            (ro, rd),
+            [&mut o_tau, &mut o_tr, &mut o_li],
+        );
     } else {
         packets!(|p: PacketIn<L>| eval_general::<L, AXIS, UNIT>(
             scene,
@@ -1470,8 +1496,10 @@ fn shared_depth<L: Lane>(single: &Single, depth: &[(L, L)], gs: &mut [L; BLOCK])
 #[cfg(zmm_dispatch)]
 #[allow(unsafe_code)]
 mod zmm {
-    use super::Single;
+    use super::{PacketIn, PacketOut, Scene, Single};
     use crate::math::zmm::{detected, Zmm};
+    use crate::math::Lane;
+    use crate::medium::volume::{eval_volumes_body, Entry, VolOut, VolumeEval};
 
     /// [`run_single`](super::run_single) with [`Zmm`] lanes, compiled with AVX-512
     /// enabled. Call only where [`detected`] is true (and lengths multiples of 16).
@@ -1504,6 +1532,128 @@ mod zmm {
         assert!(detected());
         // SAFETY: the CPU has the features `go` is compiled for (asserted above).
         unsafe { go::<AXIS, UNIT, WANT_T, WANT_L, FAST>(single, rays, outs) }
+    }
+
+    /// The general kernel's packet loop ([`general_packet`](super::general_packet), all
+    /// of the scene's volumes) with [`Zmm`] lanes, compiled with AVX-512 enabled. Call
+    /// only where [`detected`] is true (and lengths multiples of 16); `reads`: which
+    /// components of o and d the kernel reads ([`reads`](super::reads)).
+    #[inline(always)]
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn run_general<
+        const AXIS: usize,
+        const UNIT: bool,
+        const WANT_T: bool,
+        const WANT_L: bool,
+        const FAST: bool,
+    >(
+        scene: &Scene,
+        rays: [&[f32]; 7],
+        reads: ([bool; 3], [bool; 3]),
+        outs: [&mut Option<[&mut [f32]; 3]>; 3],
+    ) {
+        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
+        #[allow(clippy::type_complexity)]
+        fn go<
+            const AXIS: usize,
+            const UNIT: bool,
+            const WANT_T: bool,
+            const WANT_L: bool,
+            const FAST: bool,
+        >(
+            scene: &Scene,
+            rays: [&[f32]; 7],
+            (ro, rd): ([bool; 3], [bool; 3]),
+            outs: [&mut Option<[&mut [f32]; 3]>; 3],
+        ) {
+            let [o_tau, o_tr, o_li] = outs;
+            let mut scratch = Vec::new();
+            let full = rays[6].len();
+            let mut i = 0;
+            while i + 16 <= full {
+                let p = PacketIn {
+                    o: [
+                        super::load::<Zmm>(rays[0], i, ro[0]),
+                        super::load::<Zmm>(rays[1], i, ro[1]),
+                        super::load::<Zmm>(rays[2], i, ro[2]),
+                    ],
+                    d: [
+                        super::load::<Zmm>(rays[3], i, rd[0]),
+                        super::load::<Zmm>(rays[4], i, rd[1]),
+                        super::load::<Zmm>(rays[5], i, rd[2]),
+                    ],
+                    t: Zmm::load(&rays[6][i..i + 16]),
+                };
+                let r = general_packet::<AXIS, UNIT>(scene, p, WANT_T, WANT_L, FAST, &mut scratch);
+                super::store(r.tau, o_tau, i);
+                super::store(r.trans, o_tr, i);
+                super::store(r.insc, o_li, i);
+                i += 16;
+            }
+        }
+        assert!(detected());
+        // SAFETY: the CPU has the features `go` is compiled for (asserted above).
+        unsafe { go::<AXIS, UNIT, WANT_T, WANT_L, FAST>(scene, rays, reads, outs) }
+    }
+
+    /// One packet of the general kernel with AVX-512 (out of line, one copy per
+    /// (AXIS, UNIT), as `eval_general_with` is).
+    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
+    #[inline(never)]
+    fn general_packet<const AXIS: usize, const UNIT: bool>(
+        scene: &Scene,
+        p: PacketIn<Zmm>,
+        want_t: bool,
+        want_l: bool,
+        fast: bool,
+        scratch: &mut Vec<Entry<Zmm>>,
+    ) -> PacketOut<Zmm> {
+        super::general_packet::<Zmm, AXIS, UNIT, ZmmVolumes>(
+            scene, p, want_t, want_l, fast, None, scratch,
+        )
+    }
+
+    /// [`VolumeEval`] by [`packet_volumes`]: used only inside [`general_packet`].
+    struct ZmmVolumes;
+
+    impl VolumeEval<Zmm> for ZmmVolumes {
+        #[inline(always)]
+        fn eval<const UNIT: bool, const WANT_L: bool>(
+            scene: &Scene,
+            o: &[Zmm; 3],
+            d: &[Zmm; 3],
+            t: Zmm,
+            norm: (Zmm, Zmm),
+            dir: &[Zmm; 3],
+            sun: Option<[f32; 3]>,
+            volumes: Option<&[u32]>,
+            entries: Option<&mut Vec<Entry<Zmm>>>,
+        ) -> VolOut<Zmm> {
+            // SAFETY: only `general_packet` uses `ZmmVolumes`, and it runs only where the
+            // CPU has these features (`run_general` asserts `detected`).
+            unsafe {
+                packet_volumes::<UNIT, WANT_L>(scene, o, d, t, norm, dir, sun, volumes, entries)
+            }
+        }
+    }
+
+    /// The volumes of one packet with AVX-512 (out of line, one copy per (UNIT, WANT_L),
+    /// as `eval_volumes` is).
+    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
+    #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
+    fn packet_volumes<const UNIT: bool, const WANT_L: bool>(
+        scene: &Scene,
+        o: &[Zmm; 3],
+        d: &[Zmm; 3],
+        t: Zmm,
+        norm: (Zmm, Zmm),
+        dir: &[Zmm; 3],
+        sun: Option<[f32; 3]>,
+        volumes: Option<&[u32]>,
+        entries: Option<&mut Vec<Entry<Zmm>>>,
+    ) -> VolOut<Zmm> {
+        eval_volumes_body::<Zmm, UNIT, WANT_L>(scene, o, d, t, norm, dir, sun, volumes, entries)
     }
 }
 

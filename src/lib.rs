@@ -83,13 +83,14 @@
 //! compiled in.
 //!
 //! A build with AVX2 and FMA but without AVX-512 (x86-64-v3, this repository's own) that
-//! runs on a CPU with AVX-512 (F, VL, DQ, BW, CD) evaluates scenes of one height fog layer
-//! 16 lanes wide anyway, in AVX-512 registers, chosen at run time: `Scene::evaluate`,
-//! `evaluate_par` and the framebuffer pass's own kernel, with the same bits as the 8-lane
-//! path (the pass's own kernel: T within 4e-7 of it, L_in within 1e-6 of the fog colour,
-//! since it takes AVX-512's estimate of 1/√x there) ([`avx512_dispatch`] says whether it
-//! happens, [`Scene::without_avx512_dispatch`] turns it off). Other scenes (several
-//! layers, volumes, controls) run the build's width.
+//! runs on a CPU with AVX-512 (F, VL, DQ, BW, CD) evaluates 16 lanes wide anyway, in
+//! AVX-512 registers, chosen at run time: `Scene::evaluate` and `evaluate_par` (every
+//! scene: one height fog layer, and several layers, volumes, controls), and the
+//! framebuffer pass's own kernel and its rows of one layer, with the same bits as the
+//! 8-lane path (the pass's own kernel: T within 4e-7 of it, L_in within 1e-6 of the fog
+//! colour, since it takes AVX-512's estimate of 1/√x there) ([`avx512_dispatch`] says
+//! whether it happens, [`Scene::without_avx512_dispatch`] turns it off). The pass's rows
+//! of other scenes run the build's width.
 //!
 //! The crate's `unsafe` code is the AVX-512 intrinsics `wide` does not offer: `math::lane`'s
 //! AVX-512 module (compiled only where the build enables AVX-512F: `vgetexpps`,
@@ -158,8 +159,8 @@ use kernel::Width;
 
 /// True where this build, compiled without AVX-512 but with AVX2 and FMA (the repository's
 /// x86-64-v3 build), runs on a CPU with AVX-512 (F, VL, DQ, BW, CD): `Scene::evaluate` and
-/// `Scene::evaluate_par` then evaluate scenes of one height fog layer 16 lanes wide in
-/// AVX-512 registers, chosen at run time, with the same bits as the 8-lane path; so does
+/// `Scene::evaluate_par` then evaluate every scene 16 lanes wide in AVX-512 registers,
+/// chosen at run time, with the same bits as the 8-lane path; so does
 /// the framebuffer pass's own kernel, whose T there is within 4e-7 of the 8-lane path's
 /// and L_in within 1e-6 of the fog colour (AVX-512's estimate of 1/√x: other last bits)
 /// ([`Scene::without_avx512_dispatch`] turns it off). False in an AVX-512 build, which

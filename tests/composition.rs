@@ -49,6 +49,8 @@ impl Batch {
 #[derive(Clone, Copy, PartialEq)]
 enum Path {
     X8,
+    /// `X8` at the build's own width (no run-time AVX-512 dispatch).
+    X8Narrow,
     Scalar,
     Par,
 }
@@ -69,6 +71,7 @@ fn run(scene: &Scene, b: &Batch, path: Path) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
         let rays = b.rays();
         match path {
             Path::X8 => scene.evaluate(&rays, out),
+            Path::X8Narrow => scene.clone().without_avx512_dispatch().evaluate(&rays, out),
             Path::Scalar => scene.evaluate_scalar(&rays, out),
             Path::Par => scene.evaluate_par(&rays, out),
         }
@@ -377,14 +380,15 @@ fn one_medium_both_compositions_agree() {
 }
 
 /// x8, scalar and rayon give the same bits with the ordered composition (batches of
-/// every length up to 19, so every tail), and extreme rays give no NaN.
+/// every length up to 40, so every tail of 8 and 16 lanes), with and without the run-time
+/// AVX-512 dispatch, and extreme rays give no NaN.
 #[test]
 fn ordered_paths_agree_and_stay_finite() {
     let mut rng = Rng::new(43);
-    for k in 0..30 {
+    for k in 0..80 {
         let desc = random_scene(&mut rng);
         let scene = Scene::new(desc).unwrap();
-        let n = 1 + k % 19;
+        let n = 1 + k % 40;
         let rays: Vec<(DVec3, DVec3, f64)> = (0..n)
             .map(|_| {
                 let o = DVec3::new(
@@ -409,6 +413,7 @@ fn ordered_paths_agree_and_stay_finite() {
         let x8 = run(&scene, &b, Path::X8);
         let sc = run(&scene, &b, Path::Scalar);
         let par = run(&scene, &b, Path::Par);
+        let narrow = run(&scene, &b, Path::X8Narrow);
         let bits = |v: &(Vec<[f32; 3]>, Vec<[f32; 3]>)| {
             v.0.iter()
                 .chain(&v.1)
@@ -417,6 +422,7 @@ fn ordered_paths_agree_and_stay_finite() {
         };
         assert_eq!(bits(&x8), bits(&sc), "x8 vs scalar");
         assert_eq!(bits(&x8), bits(&par), "x8 vs par");
+        assert_eq!(bits(&x8), bits(&narrow), "x8 vs its own width");
         for (i, ray) in rays.iter().enumerate() {
             for ch in 0..3 {
                 let (t, l) = (x8.0[i][ch], x8.1[i][ch]);

@@ -25,7 +25,7 @@ mod log1p;
 #[cfg(any(zmm_dispatch, zmm_native))]
 pub(crate) mod zmm;
 
-/// Whether the one-layer kernels run `zmm::Zmm`'s 16 AVX-512 lanes: a build with the
+/// Whether the batch kernels run `zmm::Zmm`'s 16 AVX-512 lanes: a build with the
 /// run-time dispatch (`cfg(zmm_dispatch)`, see `build.rs`) on a CPU with the AVX-512
 /// subsets it uses.
 #[inline]
@@ -55,6 +55,17 @@ pub use exprel::exprel_neg;
 pub use exprel2::exprel2_neg;
 pub use fast::{exp2_split_fast, exp_neg_fast, exp_split_fast, exprel2_neg_fast, exprel_neg_fast};
 pub use frexp::frexp;
+
+/// e^(−x) in the tier that `fast` names ([`exp_neg_fast`] or [`exp_neg()`]): a function,
+/// not a closure, for the AVX-512 entry points (see `rgb!`).
+#[inline(always)]
+pub(crate) fn exp_neg_tier<L: Lane>(fast: bool, x: L) -> L {
+    if fast {
+        exp_neg_fast(x)
+    } else {
+        exp_neg(x)
+    }
+}
 pub use lane::Lane;
 #[cfg(target_feature = "avx512f")]
 pub(crate) use lane::{rcp14_x16, rsqrt14_x16};

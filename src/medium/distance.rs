@@ -309,7 +309,8 @@ pub(crate) struct DistanceOut<L> {
 
 /// The distance fog's optical depth and transmittance over the interval that starts
 /// `s_a` from the camera and is `len = len_m · 2^len_e` long (`len_f`: the same length
-/// rounded to f32, saturating to +∞). `len_m` is NaN for an invalid ray.
+/// rounded to f32, saturating to +∞). `len_m` is NaN for an invalid ray. `fast`: the
+/// tier of its exponentials.
 #[inline(always)]
 pub(crate) fn depth<L: Lane>(
     fog: &DistanceFogPlan,
@@ -317,21 +318,18 @@ pub(crate) fn depth<L: Lane>(
     len_m: L,
     len_e: L,
     len_f: L,
-    exp_neg_tier: impl Fn(L) -> L,
+    fast: bool,
 ) -> DistanceOut<L> {
     let zero = L::splat(0.0);
-    let ext = |sigma: &[Split; 3]| {
-        [0, 1, 2].map(|ch| {
-            let s = sigma[ch];
-            ldexp(len_m * L::splat(s.m), len_e + L::splat(s.e))
-        })
-    };
     match &fog.plan {
         DistancePlan::Extinction { sigma } | DistancePlan::Atmospheric { sigma, .. } => {
-            let tau = ext(sigma);
+            let tau = rgb!(ch => {
+                let s = sigma[ch];
+                ldexp(len_m * L::splat(s.m), len_e + L::splat(s.e))
+            });
             DistanceOut {
                 tau,
-                trans: tau.map(&exp_neg_tier),
+                trans: rgb!(ch => crate::math::exp_neg_tier(fast, tau[ch])),
             }
         }
         DistancePlan::Squared { k } => {
@@ -356,7 +354,7 @@ pub(crate) fn depth<L: Lane>(
             let tau = L::select(len_f.eq(zero), zero, tau);
             DistanceOut {
                 tau: [tau; 3],
-                trans: [exp_neg_tier(tau); 3],
+                trans: [crate::math::exp_neg_tier(fast, tau); 3],
             }
         }
         DistancePlan::Linear { start, end } => {

@@ -39,7 +39,7 @@ pub(crate) mod profile;
 
 #[cfg(test)]
 pub(crate) use packet::may_touch_ray;
-pub(crate) use packet::{clamp_colour, eval_volumes, Entry};
+pub(crate) use packet::{clamp_colour, eval_volumes_body, Entry, OutOfLine, VolOut, VolumeEval};
 
 use crate::error::SceneError;
 use crate::light::Phase;

@@ -82,47 +82,43 @@ struct Frame<L> {
     uo: L,
 }
 
+/// Row `r` of the matrix `m` times `x` (the products and sums in the order every
+/// transform here takes).
+#[inline(always)]
+fn mat_row<L: Lane>(m: &[[f32; 3]; 3], x: &[L; 3], r: usize) -> L {
+    x[0].mul_add(
+        L::splat(m[r][0]),
+        x[1].mul_add(L::splat(m[r][1]), x[2] * L::splat(m[r][2])),
+    )
+}
+
 #[inline(always)]
 fn frame<L: Lane>(v: &VolumePlan, o: &[L; 3], dir: &[L; 3]) -> Frame<L> {
     let big = L::splat(1.0e25);
     let far = L::splat(FAR);
     // |o − c| ≤ 1e25 and |M⁻¹| ≤ 1e12·√3: the products below cannot overflow (so no
     // inf − inf); a camera farther than that sees the volume as a point anyway.
-    let dq = [0, 1, 2].map(|i| (o[i] - L::splat(v.center[i])).clamp(big.neg(), big));
-    let m = &v.inv;
-    let mv = |x: &[L; 3], r: usize| {
-        x[0].mul_add(
-            L::splat(m[r][0]),
-            x[1].mul_add(L::splat(m[r][1]), x[2] * L::splat(m[r][2])),
-        )
-    };
-    let q = [0, 1, 2].map(|r| mv(&dq, r).clamp(far.neg(), far));
+    let dq = rgb!(i => (o[i] - L::splat(v.center[i])).clamp(big.neg(), big));
+    let q = rgb!(r => mat_row(&v.inv, &dq, r).clamp(far.neg(), far));
     frame_at(v, q, dir)
 }
 
 /// The frame of a ray whose origin is `q` in the volume's unit space.
 #[inline(always)]
 fn frame_at<L: Lane>(v: &VolumePlan, q: [L; 3], dir: &[L; 3]) -> Frame<L> {
-    let m = &v.inv;
-    let mv = |x: &[L; 3], r: usize| {
-        x[0].mul_add(
-            L::splat(m[r][0]),
-            x[1].mul_add(L::splat(m[r][1]), x[2] * L::splat(m[r][2])),
-        )
-    };
-    let e = [0, 1, 2].map(|r| mv(dir, r));
+    let e = rgb!(r => mat_row(&v.inv, dir, r));
     let ee = e[0].mul_add(e[0], e[1].mul_add(e[1], e[2] * e[2]));
     let a = ee.sqrt().max(L::splat(1e-30));
     let inv_a = L::splat(1.0) / a;
-    let eh = e.map(|x| x * inv_a);
+    let eh = rgb!(i => e[i] * inv_a);
     let uo = q[0].mul_add(eh[0], q[1].mul_add(eh[1], q[2] * eh[2]));
-    let qc = [0, 1, 2].map(|i| uo.mul_add(eh[i].neg(), q[i]));
+    let qc = rgb!(i => uo.mul_add(eh[i].neg(), q[i]));
     // Project twice ("twice is enough"): for a far origin u_o is large and the first
     // projection leaves an error of ε·|u_o| along ê, which would enter h² squared (a
     // thin ellipsoid seen edge-on from 1e5 away loses its chord otherwise). The second
     // removes it to ε² · |u_o|.
     let du = qc[0].mul_add(eh[0], qc[1].mul_add(eh[1], qc[2] * eh[2]));
-    let qc = [0, 1, 2].map(|i| du.mul_add(eh[i].neg(), qc[i]));
+    let qc = rgb!(i => du.mul_add(eh[i].neg(), qc[i]));
     let uo = uo + du;
     Frame {
         sc: uo.neg() * inv_a,
@@ -262,26 +258,13 @@ fn cut_spans<L: Lane>(
     let plan = &set.additive[k];
     let fm = &plan.fwd;
     // x_c − c, world.
-    let xr = [0, 1, 2].map(|r| {
-        f.qc[0].mul_add(
-            L::splat(fm[r][0]),
-            f.qc[1].mul_add(L::splat(fm[r][1]), f.qc[2] * L::splat(fm[r][2])),
-        )
-    });
+    let xr = rgb!(r => mat_row(fm, &f.qc, r));
     let inf = L::splat(f32::INFINITY);
     let far = L::splat(FAR);
     for (j, cut) in set.cuts.iter().enumerate() {
         let off = plan.cut_offsets[j];
-        let dq = [0, 1, 2].map(|i| xr[i] + L::splat(off[i]));
-        let m = &cut.inv;
-        let q = [0, 1, 2].map(|r| {
-            dq[0]
-                .mul_add(
-                    L::splat(m[r][0]),
-                    dq[1].mul_add(L::splat(m[r][1]), dq[2] * L::splat(m[r][2])),
-                )
-                .clamp(far.neg(), far)
-        });
+        let dq = rgb!(i => xr[i] + L::splat(off[i]));
+        let q = rgb!(r => mat_row(&cut.inv, &dq, r).clamp(far.neg(), far));
         let g = frame_at(cut, q, dir);
         let (lo, hi) = match cut.kind {
             Kind::Ball => {
@@ -418,10 +401,10 @@ fn may_touch<L: Lane>(
     t_w: L,
     packet: &CullPacket<L>,
 ) -> L::Mask {
-    let q = [0, 1, 2].map(|c| L::splat(plan.center[c]) - o[c]);
+    let q = rgb!(c => L::splat(plan.center[c]) - o[c]);
     let along = q[0] * dir[0] + q[1] * dir[1] + q[2] * dir[2];
     let s = along.max(L::splat(0.0)).min(t_w);
-    let p = [0, 1, 2].map(|c| s.neg_mul_add(dir[c], q[c]));
+    let p = rgb!(c => s.neg_mul_add(dir[c], q[c]));
     let d2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
     let mag = q[0].abs() + q[1].abs() + q[2].abs() + packet.o_mag;
     let r = L::splat(plan.bound_radius * 1.001) + mag * L::splat(1e-5);
@@ -458,6 +441,62 @@ impl<L: Lane> CullPacket<L> {
 #[inline(never)] // one copy per (L, UNIT, WANT_L), not one per kernel variant: keeps compile time sane
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn eval_volumes<L: Lane, const UNIT: bool, const WANT_L: bool>(
+    scene: &Scene,
+    o: &[L; 3],
+    d: &[L; 3],
+    t: L,
+    norm: (L, L),
+    dir: &[L; 3],
+    sun: Option<[f32; 3]>,
+    volumes: Option<&[u32]>,
+    entries: Option<&mut Vec<Entry<L>>>,
+) -> VolOut<L> {
+    eval_volumes_body::<L, UNIT, WANT_L>(scene, o, d, t, norm, dir, sun, volumes, entries)
+}
+
+/// How the general kernel evaluates a packet's volumes: [`OutOfLine`] calls
+/// [`eval_volumes`]; the AVX-512 entry point of the x86-64-v3 build has its own
+/// `#[target_feature]` copy (`kernel::zmm`), since code compiled without AVX-512 would
+/// call every `Zmm` intrinsic out of line.
+pub(crate) trait VolumeEval<L: Lane> {
+    #[allow(clippy::too_many_arguments)]
+    fn eval<const UNIT: bool, const WANT_L: bool>(
+        scene: &Scene,
+        o: &[L; 3],
+        d: &[L; 3],
+        t: L,
+        norm: (L, L),
+        dir: &[L; 3],
+        sun: Option<[f32; 3]>,
+        volumes: Option<&[u32]>,
+        entries: Option<&mut Vec<Entry<L>>>,
+    ) -> VolOut<L>;
+}
+
+/// [`VolumeEval`] by a call to [`eval_volumes`].
+pub(crate) struct OutOfLine;
+
+impl<L: Lane> VolumeEval<L> for OutOfLine {
+    #[inline(always)]
+    fn eval<const UNIT: bool, const WANT_L: bool>(
+        scene: &Scene,
+        o: &[L; 3],
+        d: &[L; 3],
+        t: L,
+        norm: (L, L),
+        dir: &[L; 3],
+        sun: Option<[f32; 3]>,
+        volumes: Option<&[u32]>,
+        entries: Option<&mut Vec<Entry<L>>>,
+    ) -> VolOut<L> {
+        eval_volumes::<L, UNIT, WANT_L>(scene, o, d, t, norm, dir, sun, volumes, entries)
+    }
+}
+
+/// The body of [`eval_volumes`], inlined into its callers.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn eval_volumes_body<L: Lane, const UNIT: bool, const WANT_L: bool>(
     scene: &Scene,
     o: &[L; 3],
     d: &[L; 3],

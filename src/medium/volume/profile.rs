@@ -81,13 +81,34 @@ const GAUSS_NORM: f32 = 0.313_328_534_328_875_03;
 const SPIKY_SHELL2: f32 = 0.64;
 const TINY: f32 = 1e-30;
 
-/// Calls `f(u, w − u, w + u, weight)` at the Gauss–Legendre nodes of the piece and sums
-/// `weight · f`, times len/2.
+/// g² of the quartic profile at the node u_a + k·len/4 of Boole's rule (`q` = len/4).
 #[inline(always)]
-fn gauss_legendre<L: Lane, const N: usize>(
+fn quartic_node<L: Lane>(q: L, k: f32, pc: &Piece<L>) -> L {
+    let v = q.mul_add(L::splat(4.0 - k), pc.db) * q.mul_add(L::splat(k), pc.da);
+    v * v
+}
+
+/// The integrand at u of the Gauss–Legendre rules (`wmu`, `wpu`: w − u and w + u; `h2`:
+/// the chord's h²): the spiky profile's ρ² where `SPIKY`, else the Gaussian's e^(−8r²).
+/// (A const parameter rather than a closure argument: see `rgb!`.)
+#[inline(always)]
+fn integrand<L: Lane, const SPIKY: bool>(u: L, wmu: L, wpu: L, h2: L) -> L {
+    if SPIKY {
+        let r = u.mul_add(u, h2).sqrt();
+        let rho = wmu * wpu / (L::splat(1.0) + r);
+        rho * rho
+    } else {
+        exp(L::splat(-8.0) * u.mul_add(u, h2))
+    }
+}
+
+/// Sums `weight · integrand(u, w − u, w + u)` ([`integrand`]) over the Gauss–Legendre
+/// nodes of the piece, times len/2.
+#[inline(always)]
+fn gauss_legendre<L: Lane, const N: usize, const SPIKY: bool>(
     nodes: &[(f32, f32); N],
     p: &Piece<L>,
-    f: impl Fn(L, L, L) -> L,
+    h2: L,
 ) -> L {
     let half = p.len * L::splat(0.5);
     let mid = (p.ua + p.ub) * L::splat(0.5);
@@ -97,7 +118,7 @@ fn gauss_legendre<L: Lane, const N: usize>(
             let u = half.mul_add(L::splat(s), mid);
             let wmu = half.mul_add(L::splat(1.0 - s), p.db);
             let wpu = half.mul_add(L::splat(1.0 + s), p.da);
-            acc = L::splat(wt).mul_add(f(u, wmu, wpu), acc);
+            acc = L::splat(wt).mul_add(integrand::<L, SPIKY>(u, wmu, wpu, h2), acc);
         }
     }
     acc * half
@@ -150,10 +171,7 @@ pub(crate) fn integral<L: Lane>(profile: Profile, c: &Chord<L>, pc: &Piece<L>) -
         Profile::Quartic => {
             // Boole, exact for g² of degree 4.
             let q = len * L::splat(0.25);
-            let g = |k: f32| {
-                let v = q.mul_add(L::splat(4.0 - k), pc.db) * q.mul_add(L::splat(k), pc.da);
-                v * v
-            };
+            let g = |k: f32| quartic_node(q, k, pc);
             let s = L::splat(7.0).mul_add(g(0.0) + g(4.0), L::splat(32.0) * (g(1.0) + g(3.0)));
             len * L::splat(12.0).mul_add(g(2.0), s) * L::splat(1.0 / 90.0)
         }
@@ -170,11 +188,7 @@ pub(crate) fn integral<L: Lane>(profile: Profile, c: &Chord<L>, pc: &Piece<L>) -
                 v = len.mul_add(poly, L::splat(-2.0) * sqrt_integral(c, pc));
             }
             if L::any(shell) {
-                let gl = gauss_legendre(&GL12, pc, |u, wmu, wpu| {
-                    let r = u.mul_add(u, c.h2).sqrt();
-                    let rho = wmu * wpu / (L::splat(1.0) + r);
-                    rho * rho
-                });
+                let gl = gauss_legendre::<L, _, true>(&GL12, pc, c.h2);
                 v = L::select(shell, gl, v);
             }
             v
@@ -191,8 +205,7 @@ pub(crate) fn integral<L: Lane>(profile: Profile, c: &Chord<L>, pc: &Piece<L>) -
                 v = exp(L::splat(-8.0) * c.h2) * a * L::splat(GAUSS_NORM);
             }
             if L::any(short) {
-                let gl =
-                    gauss_legendre(&GL6, pc, |u, _, _| exp(L::splat(-8.0) * u.mul_add(u, c.h2)));
+                let gl = gauss_legendre::<L, _, false>(&GL6, pc, c.h2);
                 v = L::select(short, gl, v);
             }
             v
