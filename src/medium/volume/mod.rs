@@ -39,7 +39,10 @@ pub(crate) mod profile;
 
 #[cfg(test)]
 pub(crate) use packet::may_touch_ray;
-pub(crate) use packet::{clamp_colour, eval_volumes_body, Entry, OutOfLine, VolOut, VolumeEval};
+pub(crate) use packet::{clamp_colour, Entry, OutOfLine, VolumeEval};
+/// For the AVX-512 entry points of the x86-64-v3 build (`kernel::zmm`).
+#[cfg(zmm_dispatch)]
+pub(crate) use packet::{eval_volumes_body, VolOut};
 
 use crate::error::SceneError;
 use crate::light::Phase;
