@@ -631,9 +631,9 @@ fn eval_general_with<L: Lane, const AXIS: usize, const UNIT: bool>(
     general_packet::<L, AXIS, UNIT, OutOfLine>(scene, p, want_t, want_l, fast, volumes, scratch)
 }
 
-/// The body of [`eval_general_with`], inlined: out of line there (8 lanes), inside the
-/// AVX-512 entry point's packet loop with `Zmm` lanes (`zmm::run_general`), where every
-/// function it calls must be inlined too (see ARCHITECTURE "AVX-512 chosen at run time").
+/// The body of [`eval_general_with`], inlined there (the other lane types) and into its
+/// `#[target_feature]` twin for `Zmm` lanes (`zmm::general_packet`), where every function
+/// it calls must be inlined too (see ARCHITECTURE "AVX-512 chosen at run time").
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn general_packet<L: Lane, const AXIS: usize, const UNIT: bool, V: VolumeEval<L>>(
@@ -646,8 +646,9 @@ fn general_packet<L: Lane, const AXIS: usize, const UNIT: bool, V: VolumeEval<L>
     scratch: &mut Vec<Entry<L>>,
 ) -> PacketOut<L> {
     let p = &p;
-    // The tier (see `Tier`): a predictable branch per call. (Functions, not closures: a
-    // closure is compiled without the `#[target_feature]` of the AVX-512 entry points.)
+    // The tier (see `Tier`): a predictable branch per call. (Its work in functions: a
+    // closure that held it was compiled without the `#[target_feature]` of the AVX-512
+    // entry points and stayed out of line; these one-call wrappers are inlined.)
     let layer_depth = |layer, geom| tier_layer_depth(fast, layer, geom);
     let exp_neg = |x: L| crate::math::exp_neg_tier(fast, x);
     let (geom, norm, dir, sun) = packet_geometry::<L, AXIS, UNIT>(
