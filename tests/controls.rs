@@ -404,7 +404,7 @@ fn controls_against_reference() {
         let desc = random_scene(&mut rng);
         let scene = Scene::new(desc.clone()).unwrap();
         let mut rays = Vec::new();
-        for _ in 0..11 {
+        for _ in 0..19 {
             let o = Vec3::new(
                 rng.range(-50.0, 50.0) as f32,
                 rng.range(-10.0, 40.0) as f32,
