@@ -18,6 +18,9 @@
 //!   the cost per pixel does not depend on the frame size here): compare it per pixel
 //!   (criterion's throughput, elements = pixels) or scale its time by 64.
 //! - `volumes_0/fog_only`: no volumes (the height fog alone, for scale).
+//! - `volumes_1000/tile_culled_lanes8`, `volumes_10/tile_culled_lanes8`: the same with the
+//!   build's own 8 lanes (`Scene::without_avx512_dispatch`) where the CPU's AVX-512 is
+//!   chosen at run time (16 lanes); elsewhere the same as `tile_culled`.
 //!
 //! Before timing it prints the coverage and the candidates per tile.
 //!
@@ -325,6 +328,10 @@ fn bench(c: &mut Criterion) {
     g.bench_function("tile_culled", |b| {
         b.iter(|| run(&s1000, &cam, W, H, &depth, &mut buf))
     });
+    let s1000_8 = s1000.clone().without_avx512_dispatch();
+    g.bench_function("tile_culled_lanes8", |b| {
+        b.iter(|| run(&s1000_8, &cam, W, H, &depth, &mut buf))
+    });
     g.sample_size(10);
     g.measurement_time(Duration::from_secs(15));
     let packet_only = s1000.clone().without_tile_culling();
@@ -346,6 +353,10 @@ fn bench(c: &mut Criterion) {
     let mut buf = colour.clone();
     g.bench_function("tile_culled", |b| {
         b.iter(|| run(&s10, &cam, W, H, &depth, &mut buf))
+    });
+    let s10_8 = s10.clone().without_avx512_dispatch();
+    g.bench_function("tile_culled_lanes8", |b| {
+        b.iter(|| run(&s10_8, &cam, W, H, &depth, &mut buf))
     });
     g.finish();
 

@@ -1496,8 +1496,8 @@ fn shared_depth<L: Lane>(single: &Single, depth: &[(L, L)], gs: &mut [L; BLOCK])
 /// enable AVX-512 themselves, where the CPU has it.
 #[cfg(zmm_dispatch)]
 #[allow(unsafe_code)]
-mod zmm {
-    use super::{PacketIn, PacketOut, Scene, Single};
+pub(crate) mod zmm {
+    use super::{PacketIn, PacketIo, PacketOut, Scene, Single, UpAxis, GENERAL};
     use crate::math::zmm::{detected, Zmm};
     use crate::math::Lane;
     use crate::medium::volume::{eval_volumes_body, Entry, VolOut, VolumeEval};
@@ -1585,7 +1585,15 @@ mod zmm {
                     ],
                     t: Zmm::load(&rays[6][i..i + 16]),
                 };
-                let r = general_packet::<AXIS, UNIT>(scene, p, WANT_T, WANT_L, FAST, &mut scratch);
+                let r = general_packet::<AXIS, UNIT>(
+                    scene,
+                    p,
+                    WANT_T,
+                    WANT_L,
+                    FAST,
+                    None,
+                    &mut scratch,
+                );
                 super::store(r.tau, o_tau, i);
                 super::store(r.trans, o_tr, i);
                 super::store(r.insc, o_li, i);
@@ -1597,20 +1605,61 @@ mod zmm {
         unsafe { go::<AXIS, UNIT, WANT_T, WANT_L, FAST>(scene, rays, reads, outs) }
     }
 
+    /// [`run_packets`](super::run_packets) for a scene that is not one height fog layer,
+    /// with [`Zmm`] lanes: the framebuffer pass's general rows where AVX-512 is chosen at
+    /// run time. The same packets through the same kernel as `run_general`, so the same
+    /// bits as a batch. Call only where [`detected`] is true.
+    #[inline(always)]
+    pub(crate) fn run_packets_general<const UNIT: bool, S: PacketIo<Zmm>>(
+        scene: &Scene,
+        volumes: Option<&[u32]>,
+        count: usize,
+        io: &mut S,
+    ) {
+        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
+        fn go<const AXIS: usize, const UNIT: bool, S: PacketIo<Zmm>>(
+            scene: &Scene,
+            volumes: Option<&[u32]>,
+            count: usize,
+            io: &mut S,
+        ) {
+            let fast = scene.tier == crate::Tier::Fast;
+            let mut scratch = Vec::new();
+            for i in 0..count {
+                let p = io.make(i);
+                let r =
+                    general_packet::<AXIS, UNIT>(scene, p, true, true, fast, volumes, &mut scratch);
+                io.take(i, &r);
+            }
+        }
+        assert!(detected());
+        // SAFETY: the CPU has the features `go` is compiled for (asserted above).
+        unsafe {
+            match scene.axis {
+                UpAxis::Axis(0) => go::<0, UNIT, S>(scene, volumes, count, io),
+                UpAxis::Axis(1) => go::<1, UNIT, S>(scene, volumes, count, io),
+                UpAxis::Axis(2) => go::<2, UNIT, S>(scene, volumes, count, io),
+                _ => go::<GENERAL, UNIT, S>(scene, volumes, count, io),
+            }
+        }
+    }
+
     /// One packet of the general kernel with AVX-512 (out of line, one copy per
-    /// (AXIS, UNIT), as `eval_general_with` is).
+    /// (AXIS, UNIT), as `eval_general_with` is); `volumes` as there.
     #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
     #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
     fn general_packet<const AXIS: usize, const UNIT: bool>(
         scene: &Scene,
         p: PacketIn<Zmm>,
         want_t: bool,
         want_l: bool,
         fast: bool,
+        volumes: Option<&[u32]>,
         scratch: &mut Vec<Entry<Zmm>>,
     ) -> PacketOut<Zmm> {
         super::general_packet::<Zmm, AXIS, UNIT, ZmmVolumes>(
-            scene, p, want_t, want_l, fast, None, scratch,
+            scene, p, want_t, want_l, fast, volumes, scratch,
         )
     }
 

@@ -766,10 +766,11 @@ impl Scene {
     /// This scene with the batch kernel at the build's own width (8 lanes in an AVX2 build)
     /// even where [`crate::avx512_dispatch`] is true: without this, `evaluate` and
     /// `evaluate_par` run every scene 16 lanes wide on such a CPU, and so does the
-    /// framebuffer pass with one height fog layer. The batch results are the same bits
-    /// either way; the pass's differ in the last bits (T within 4e-7, L_in within 1e-6 of
-    /// the fog colour: its AVX-512 lanes take AVX-512's estimate of 1/√x). This is for tests and benchmarks, and for
-    /// CPUs whose clock drops under AVX-512 load.
+    /// framebuffer pass. The batch results and the pass's rows through the general kernel
+    /// (several layers, volumes, controls) are the same bits either way; the pass's own
+    /// one-layer kernel differs in the last bits (T within 4e-7, L_in within 1e-6 of the
+    /// fog colour: its AVX-512 lanes take AVX-512's estimate of 1/√x). This is for tests
+    /// and benchmarks, and for CPUs whose clock drops under AVX-512 load.
     pub fn without_avx512_dispatch(mut self) -> Scene {
         self.no_avx512_dispatch = true;
         self

@@ -1338,6 +1338,9 @@ fn volume_tile_culling_is_bit_identical_to_no_culling_and_batch_api() {
         let culled = run(&scene, case % 2 == 0);
         let none = run(&unculled, false);
         let packet = run(&packet_only, true);
+        // The build's own 8 lanes where the general kernel's rows take 16 AVX-512 lanes
+        // chosen at run time (`avx512_dispatch()`; elsewhere the same path again).
+        let narrow = run(&scene.clone().without_avx512_dispatch(), case % 2 == 1);
         // Planar and RGBA layouts with the lists too.
         let mut planes: [Vec<f32>; 3] =
             [0, 1, 2].map(|c| (0..n).map(|i| surface[3 * i + c]).collect());
@@ -1373,6 +1376,12 @@ fn volume_tile_culling_is_bit_identical_to_no_culling_and_batch_api() {
                     bits,
                     packet[3 * i + c].to_bits(),
                     "tile vs packet culled: {}",
+                    ctx()
+                );
+                assert_eq!(
+                    bits,
+                    narrow[3 * i + c].to_bits(),
+                    "16 lanes vs 8: {}",
                     ctx()
                 );
                 assert_eq!(bits, e.to_bits(), "tile culled vs batch API: {}", ctx());

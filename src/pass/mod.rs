@@ -782,6 +782,10 @@ fn fog_row<R: RowColour>(scene: &Scene, plan: &FramePlan, y: usize, depth: &[f32
         let count = depth.len().div_ceil(f32x8::LANES);
         run_packets_single::<f32x8, false, _>(scene, &single, count, &mut io);
     } else {
+        #[cfg(zmm_dispatch)]
+        if !scene.no_avx512_dispatch && crate::math::avx512_detected() {
+            return zmm_row::fog_row_general(scene, plan, y, depth, out, None);
+        }
         let mut io = RowIo::<R, Wide>::new(plan, y, depth, out);
         run_packets::<Wide, false, _>(scene, None, depth.len().div_ceil(Wide::LANES), &mut io);
     }
@@ -793,7 +797,8 @@ fn fog_row<R: RowColour>(scene: &Scene, plan: &FramePlan, y: usize, depth: &[f32
 #[cfg(zmm_dispatch)]
 #[allow(unsafe_code)]
 mod zmm_row {
-    use super::{FramePlan, RowColour, RowIo, Scene};
+    use super::{FramePlan, RowColour, RowIo, Scene, TileLists, TILE_W};
+    use crate::kernel::zmm::run_packets_general;
     use crate::kernel::{run_packets_single, Single};
     use crate::math::zmm::{detected, Zmm};
     use crate::math::Lane;
@@ -816,6 +821,33 @@ mod zmm_row {
         assert!(detected());
         // SAFETY: the CPU has the features `go` is compiled for (asserted above).
         unsafe { go::<R>(scene, single, io) }
+    }
+
+    /// [`fog_row`](super::fog_row)'s general kernel (and [`fog_row_tiled`]'s, with the
+    /// tiles' lists) on 16 lanes: [`TILE_W`] is a multiple of 16, so a tile's packets are
+    /// whole and the same as on 8 lanes (the same rays, the same candidates).
+    ///
+    /// [`fog_row_tiled`]: super::fog_row_tiled
+    pub(super) fn fog_row_general<R: RowColour>(
+        scene: &Scene,
+        plan: &FramePlan,
+        y: usize,
+        depth: &[f32],
+        out: R,
+        lists: Option<&TileLists>,
+    ) {
+        const { assert!(TILE_W % Zmm::LANES == 0) };
+        let mut io = RowIo::<R, Zmm>::new(plan, y, depth, out);
+        let packets = depth.len().div_ceil(Zmm::LANES);
+        let Some(lists) = lists else {
+            return run_packets_general::<false, _>(scene, None, packets, &mut io);
+        };
+        let tile_packets = TILE_W / Zmm::LANES;
+        for j in 0..lists.len() {
+            io.first = j * tile_packets;
+            let count = (packets - io.first).min(tile_packets);
+            run_packets_general::<false, _>(scene, Some(lists.list(j)), count, &mut io);
+        }
     }
 }
 
@@ -855,6 +887,10 @@ fn fog_row_tiled<R: RowColour>(
     out: &mut R,
     lists: &TileLists,
 ) {
+    #[cfg(zmm_dispatch)]
+    if !scene.no_avx512_dispatch && crate::math::avx512_detected() {
+        return zmm_row::fog_row_general(scene, plan, y, depth, out, Some(lists));
+    }
     let packets = depth.len().div_ceil(Wide::LANES);
     let tile_packets = TILE_W / Wide::LANES;
     let mut io = RowIo::<&mut R, Wide>::new(plan, y, depth, out);
