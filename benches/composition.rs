@@ -3,7 +3,9 @@
 //! (`behind`: a bright volume behind a dark one; `side_by_side`: the same two volumes
 //! beside each other), and `height_only` (the same height fog without volumes) as the
 //! floor. 128 × 128 rays of `reference::composition_rays` (a view through both volumes,
-//! unit directions), T and L_in wanted, one thread.
+//! unit directions), T and L_in wanted, one thread. Each has a `<name>_lanes8` twin: the
+//! build's own 8 lanes (`Scene::without_avx512_dispatch`) where the CPU's AVX-512 is
+//! chosen at run time (16 lanes); elsewhere the same as `<name>`.
 //!
 //! `cargo bench --bench composition -- --warm-up-time 1 --measurement-time 3 --noplot`
 
@@ -28,17 +30,20 @@ fn bench(c: &mut Criterion) {
     g.throughput(Throughput::Elements(n as u64));
     let mut run = |name: String, desc: SceneDesc| {
         let scene = Scene::new(desc).expect("valid scene");
-        g.bench_function(name, |b| {
-            b.iter(|| {
-                let [t0, t1, t2, l0, l1, l2] = &mut out;
-                let o = Outputs {
-                    tau: None,
-                    transmittance: Some([t0, t1, t2]),
-                    inscattering: Some([l0, l1, l2]),
-                };
-                scene.evaluate(black_box(&batch), o).expect("lengths");
-            })
-        });
+        let narrow = scene.clone().without_avx512_dispatch();
+        for (name, scene) in [(name.clone(), &scene), (format!("{name}_lanes8"), &narrow)] {
+            g.bench_function(name, |b| {
+                b.iter(|| {
+                    let [t0, t1, t2, l0, l1, l2] = &mut out;
+                    let o = Outputs {
+                        tau: None,
+                        transmittance: Some([t0, t1, t2]),
+                        inscattering: Some([l0, l1, l2]),
+                    };
+                    scene.evaluate(black_box(&batch), o).expect("lengths");
+                })
+            });
+        }
     };
     let scenes = composition_scenes();
     run(

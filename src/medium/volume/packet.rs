@@ -384,15 +384,11 @@ fn volume_depth<L: Lane>(set: &VolumeSet, k: usize, o: &[L; 3], dir: &[L; 3], t_
     }
 }
 
-/// The volumes' optical depth and colour for a packet. `o`: origins; `dir`: unit
-/// directions (zero for a zero direction); `t_w`: segment length in world units (may be
-/// +inf); invalid rays get τ = NaN; `sun`: toward the sun, when
-/// some colour depends on the view direction and radiance is wanted.
 /// Per-lane culling test: whether the segment o + s·dir, s in [0, t_w] (dir unit; lanes
 /// whose dir is not are always kept) may come within the volume's bounding sphere.
 /// Conservative: the distance is computed in f32, so the sphere is widened by 1e-5 of the
-/// coordinates' magnitudes (far more than their rounding) and by 1e-3 of its radius; NaN lanes (invalid rays) give false, and
-/// their outputs are NaN regardless.
+/// coordinates' magnitudes (far more than their rounding) and by 1e-3 of its radius; NaN
+/// lanes (invalid rays) give false, and their outputs are NaN regardless.
 #[inline(always)]
 fn may_touch<L: Lane>(
     plan: &VolumePlan,
@@ -432,6 +428,17 @@ impl<L: Lane> CullPacket<L> {
     }
 }
 
+/// The volumes' optical depth and colour for a packet: `o` the origins, `d` the
+/// directions as given, `t` the length parameter, `norm` the mantissa and exponent of |d|
+/// (`direction_norm`), `dir` the unit directions (zero for a zero direction); the
+/// segment's length in world units, t·|d|, may be +inf; invalid rays get τ = NaN. `sun`:
+/// toward the sun, used where some colour depends on the view direction and radiance is
+/// wanted (`WANT_L`). `entries`: where given (and `WANT_L`), each volume the packet does
+/// not skip is appended there as an [`Entry`], for the ordered composition.
+///
+/// (The nine arguments stay separate: bundling the rays' six into one struct passed by
+/// value made the AVX-512 twin, `kernel::zmm::packet_volumes`, 1.12–1.14× slower on the
+/// `volumes/{constant,quartic}/x8` benches, sixty-second session.)
 ///
 /// `volumes`: the additive volumes to consider, as increasing indices into
 /// `scene.volumes.additive` (`None`: all of them). The framebuffer pass passes a tile's
