@@ -836,7 +836,7 @@ mod zmm_row {
         out: R,
         lists: Option<&TileLists>,
     ) {
-        const { assert!(TILE_W % Zmm::LANES == 0) };
+        const { assert!(TILE_W.is_multiple_of(Zmm::LANES)) };
         let mut io = RowIo::<R, Zmm>::new(plan, y, depth, out);
         let packets = depth.len().div_ceil(Zmm::LANES);
         let Some(lists) = lists else {
