@@ -8,13 +8,16 @@
 //!   rounding of a number below 1/16 + 2⁻²⁰, the second adding the rest of log2(e)
 //!   (`LOG2E_LO`, 1.9e-8: without it x·(log2 e − LOG2E_HI) would cost up to 3 ULP at
 //!   x = 87); what is left of log2(e) (below 3e-16 relative) is negligible;
-//! - 2^(j/8) = hi_j + lo_j from two 8-entry tables (hi rounded to nearest, lo the rest
-//!   rounded), so the table value is exact to about 1e-15 instead of half an ULP (one
-//!   table alone measured 1.005 ULP in a 16-entry form); 2^r = 1 − r'·P(−r') with P of
-//!   degree 3, a Chebyshev fit on [−1/16, 1/16] (`tools/fit_poly.py`: 3.4e-10 relative
-//!   with f32 coefficients, 0.006 ULP);
-//! - (hi + lo)·(1 − q), q = r'·P, is gathered as `hi + fma(−q, hi, lo)` (lo·q, below 2⁻²⁹
-//!   relative, dropped): one rounding of a small correction and one of the sum;
+//! - 2^(j/8) = hi_j·(1 + c_j) from two 8-entry tables (hi rounded to nearest, c_j =
+//!   lo_j/hi_j rounded, lo_j the rest), so the table value is exact to about 1e-15
+//!   instead of half an ULP (one table alone measured 1.005 ULP in a 16-entry form);
+//!   2^r = 1 − r'·P(−r') with P of degree 3, a Chebyshev fit on [−1/16, 1/16]
+//!   (`tools/fit_poly.py`: 3.4e-10 relative with f32 coefficients, 0.006 ULP);
+//! - hi·(1 + c)·(1 − q), q = r'·P, is gathered as `fma(−fma(P, r', −c), hi, hi)` (c·q,
+//!   below 2⁻²⁹ relative, dropped): one rounding of the small q − c and one of the
+//!   result. (Until the sixty-third session `hi + fma(−q, hi, lo)` with the table of lo:
+//!   one operation more per exponential, three per ray in the RGB kernels, and 0.6208
+//!   ULP, 0.17 % over 0.5, where this form measures 0.5982 and 0.14 %.)
 //! - then scaled by 2^⌊m/8⌋, exactly: on AVX-512 lanes by `vscalefps` with a zeroing mask
 //!   that flushes the results of m/8 < −126 (x > 87.3) to +0; elsewhere by a multiply
 //!   with 2^⌊m/8⌋ built from the sum's bits (`Lane::pow2_floor_round8`), whose factor is
@@ -30,8 +33,8 @@
 //! branch on the data.
 //!
 //! Measured (`tests/exhaustive.rs`, every f32 ≥ 0, +inf included; 8 lanes and scalar bit
-//! for bit): max error 0.6208 ULP (at x = 1.436804) for results ≥ 2^-126, 0.17 % of them
-//! over 0.5 ULP (the Cody–Waite form before: 0.943 ULP, 0.47 %); beyond, an absolute
+//! for bit): max error 0.5982 ULP (at x = 2.8130124) for results ≥ 2^-126, 0.14 % of them
+//! over 0.5 ULP (the Cody–Waite form before the table: 0.943 ULP, 0.47 %); beyond, an absolute
 //! error of at most 0.958 · 2^-126. AVX-512 lanes against scalar, bit for bit: every
 //! 257th f32 (`Zmm` in the `math::zmm` tests, with every f32 in [86, 89] too; f32x16 in
 //! `tests/lanes16.rs`).
@@ -70,16 +73,18 @@ const TABLE_HI: [f32; 16] = twice([
     1.834_008_1,
 ]);
 
-/// 2^(j/8) − `TABLE_HI[j]`, rounded to nearest f32.
-const TABLE_LO: [f32; 16] = twice([
+/// (2^(j/8) − `TABLE_HI[j]`) / `TABLE_HI[j]`, rounded to nearest f32 (`tools/fit_poly.py`):
+/// the table's low part relative to its high part, subtracted from q in the FMA that
+/// forms q, so that one FMA gathers the result (see the module's header).
+const TABLE_LO_REL: [f32; 16] = twice([
     0.0,
-    -1.307_754e-8,
-    3.797_635_3e-8,
-    -4.018_999_5e-8,
-    2.420_323_5e-8,
-    8.070_905e-9,
-    -2.475_532_7e-8,
-    -1.123_927_8e-8,
+    -1.199_215_75e-8,
+    3.193_418e-8,
+    -3.099_072e-8,
+    1.711_427_1e-8,
+    5.233_334e-9,
+    -1.471_960_5e-8,
+    -6.128_259_7e-9,
 ]);
 
 /// 2^-62: smaller x give 1 either way.
@@ -144,11 +149,12 @@ impl Default for ExpNegMul {
 /// 2⁻⁶², so that clamp gives 1 as the exact value does. The same bits in every lane type.
 ///
 /// Measured (`exp_neg_mul_sweep` in `tests/exhaustive.rs`, 8 lanes and scalar bit for
-/// bit): 10 factors from 2⁻⁶⁴ to 2³², every x with x·κ in [2⁻⁶, 104], max 0.6265 ULP (at
-/// κ = 1/√2, x = 9.866348) for results ≥ 2^-126, 1.6 % of them over 0.5 ULP, an absolute
-/// error of at most 0.958 · 2^-126 below; 4096 random factors in [2⁻¹⁶, 2) with 2^17
-/// random x each, max 0.6294 ULP (0.6301 with `EXP_NEG_MUL_FACTORS=65536`). The sweep
-/// asserts 0.64: not every factor was tried. κ = 1 gives `exp_neg`'s bits (`math::exp_neg::tests`).
+/// bit): 10 factors from 2⁻⁶⁴ to 2³², every x with x·κ in [2⁻⁶, 104], max 0.6020 ULP (at
+/// κ = 1.9999999, x = 1.9979447e-2) for results ≥ 2^-126, 1.4 % of them over 0.5 ULP, an
+/// absolute error of at most 0.958 · 2^-126 below; 4096 random factors in [2⁻¹⁶, 2) with
+/// 2^17 random x each, max 0.6035 ULP (0.6040 with `EXP_NEG_MUL_FACTORS=65536`). The
+/// sweep asserts 0.62: not every factor was tried. (The form with the table of lo
+/// before the sixty-third session: 0.6265, 0.6294 and 0.6301.) κ = 1 gives `exp_neg`'s bits (`math::exp_neg::tests`).
 #[inline(always)]
 pub fn exp_neg_mul<L: Lane>(x: L, k: ExpNegMul) -> L {
     reduce_and_scale(x, k.hi, k.lo, k.x_max)
@@ -171,14 +177,15 @@ fn reduce_and_scale<L: Lane>(x: L, k_hi: f32, k_lo: f32, x_max: f32) -> L {
     let rn = x.mul_add(L::splat(k_hi), m8);
     let rn = x.mul_add(L::splat(k_lo), rn);
     let hi = t.lookup8(&TABLE_HI);
-    let lo = t.lookup8(&TABLE_LO);
+    let lo_rel = t.lookup8(&TABLE_LO_REL);
     // P(−r') = ln2 − c2·r' + c3·r'² − c4·r'³.
     let p = rn
         .mul_add(L::splat(-9.618_731e-3), L::splat(5.550_931_8e-2))
         .mul_add(rn, L::splat(-0.240_226_5))
         .mul_add(rn, L::splat(core::f32::consts::LN_2));
-    let q = p * rn;
-    let v = q.neg_mul_add(hi, lo) + hi;
+    // hi·(1 − (q − lo/hi)) = hi + lo − hi·q.
+    let q = p.mul_sub(rn, lo_rel);
+    let v = q.neg_mul_add(hi, hi);
     if L::NATIVE_SCALE {
         v.scale2_floor_or_zero(m8, m8, FLUSH_BELOW)
     } else {
