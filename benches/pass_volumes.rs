@@ -21,6 +21,9 @@
 //! - `volumes_1000/tile_culled_lanes8`, `volumes_10/tile_culled_lanes8`: the same with the
 //!   build's own 8 lanes (`Scene::without_avx512_dispatch`) where the CPU's AVX-512 is
 //!   chosen at run time (16 lanes); elsewhere the same as `tile_culled`.
+//! - `volumes_1000/tile_culled_ordered`, `volumes_10/tile_culled_ordered`: `tile_culled`
+//!   with the volumes composited front to back (`Composition::Ordered`; the others mix
+//!   the media's fog colours).
 //!
 //! Before timing it prints the coverage and the candidates per tile.
 //!
@@ -28,8 +31,8 @@
 
 use analytic_fog::pass::{Camera, ColourBuffer, Depth, DepthConvention};
 use analytic_fog::{
-    Component, HeightFogLayer, Lighting, Outputs, Phase, Profile, Rays, Scene, SceneDesc, Shape,
-    Sun, Volume,
+    Component, Composition, HeightFogLayer, Lighting, Outputs, Phase, Profile, Rays, Scene,
+    SceneDesc, Shape, Sun, Volume,
 };
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use glam::{Quat, Vec3};
@@ -53,6 +56,10 @@ fn camera(w: usize, h: usize) -> Camera {
 }
 
 fn scene(volumes: Vec<Volume>) -> Scene {
+    scene_composed(volumes, Composition::Mix)
+}
+
+fn scene_composed(volumes: Vec<Volume>, composition: Composition) -> Scene {
     Scene::new(SceneDesc {
         height_fog: vec![HeightFogLayer {
             base_height: 0.0,
@@ -72,6 +79,7 @@ fn scene(volumes: Vec<Volume>) -> Scene {
             }),
         },
         volumes,
+        composition,
         ..SceneDesc::default()
     })
     .unwrap()
@@ -332,6 +340,10 @@ fn bench(c: &mut Criterion) {
     g.bench_function("tile_culled_lanes8", |b| {
         b.iter(|| run(&s1000_8, &cam, W, H, &depth, &mut buf))
     });
+    let s1000_ordered = scene_composed(vols.clone(), Composition::Ordered);
+    g.bench_function("tile_culled_ordered", |b| {
+        b.iter(|| run(&s1000_ordered, &cam, W, H, &depth, &mut buf))
+    });
     g.sample_size(10);
     g.measurement_time(Duration::from_secs(15));
     let packet_only = s1000.clone().without_tile_culling();
@@ -357,6 +369,10 @@ fn bench(c: &mut Criterion) {
     let s10_8 = s10.clone().without_avx512_dispatch();
     g.bench_function("tile_culled_lanes8", |b| {
         b.iter(|| run(&s10_8, &cam, W, H, &depth, &mut buf))
+    });
+    let s10_ordered = scene_composed(s10.desc().volumes.clone(), Composition::Ordered);
+    g.bench_function("tile_culled_ordered", |b| {
+        b.iter(|| run(&s10_ordered, &cam, W, H, &depth, &mut buf))
     });
     g.finish();
 

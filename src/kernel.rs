@@ -1615,13 +1615,15 @@ pub(crate) mod zmm {
     /// [`run_packets`](super::run_packets) for a scene that is not one height fog layer,
     /// with [`Zmm`] lanes: the framebuffer pass's general rows where AVX-512 is chosen at
     /// run time. The same packets through the same kernel as `run_general`, so the same
-    /// bits as a batch. Call only where [`detected`] is true.
+    /// bits as a batch. Call only where [`detected`] is true. `scratch` as in
+    /// [`run_packets`](super::run_packets).
     #[inline(always)]
     pub(crate) fn run_packets_general<const UNIT: bool, S: PacketIo<Zmm>>(
         scene: &Scene,
         volumes: Option<&[u32]>,
         count: usize,
         io: &mut S,
+        scratch: &mut Vec<Entry<Zmm>>,
     ) {
         #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
         fn go<const AXIS: usize, const UNIT: bool, S: PacketIo<Zmm>>(
@@ -1629,13 +1631,12 @@ pub(crate) mod zmm {
             volumes: Option<&[u32]>,
             count: usize,
             io: &mut S,
+            scratch: &mut Vec<Entry<Zmm>>,
         ) {
             let fast = scene.tier == crate::Tier::Fast;
-            let mut scratch = Vec::new();
             for i in 0..count {
                 let p = io.make(i);
-                let r =
-                    general_packet::<AXIS, UNIT>(scene, p, true, true, fast, volumes, &mut scratch);
+                let r = general_packet::<AXIS, UNIT>(scene, p, true, true, fast, volumes, scratch);
                 io.take(i, &r);
             }
         }
@@ -1643,10 +1644,10 @@ pub(crate) mod zmm {
         // SAFETY: the CPU has the features `go` is compiled for (asserted above).
         unsafe {
             match scene.axis {
-                UpAxis::Axis(0) => go::<0, UNIT, S>(scene, volumes, count, io),
-                UpAxis::Axis(1) => go::<1, UNIT, S>(scene, volumes, count, io),
-                UpAxis::Axis(2) => go::<2, UNIT, S>(scene, volumes, count, io),
-                _ => go::<GENERAL, UNIT, S>(scene, volumes, count, io),
+                UpAxis::Axis(0) => go::<0, UNIT, S>(scene, volumes, count, io, scratch),
+                UpAxis::Axis(1) => go::<1, UNIT, S>(scene, volumes, count, io, scratch),
+                UpAxis::Axis(2) => go::<2, UNIT, S>(scene, volumes, count, io, scratch),
+                _ => go::<GENERAL, UNIT, S>(scene, volumes, count, io, scratch),
             }
         }
     }
@@ -1838,13 +1839,16 @@ pub(crate) trait PacketIo<L> {
 /// [`reads`]) may hold anything.
 ///
 /// `volumes`: the candidate fog volumes of these packets (see [`eval_general_with`]):
-/// the pass's per-tile list, or `None` for all.
+/// the pass's per-tile list, or `None` for all. `scratch`: the general kernel's list of
+/// the volumes a packet touches (ordered composition), owned by the caller so that a row
+/// of tiles allocates it once, not once per tile.
 #[inline(always)]
 pub(crate) fn run_packets<L: Lane, const UNIT: bool, S: PacketIo<L>>(
     scene: &Scene,
     volumes: Option<&[u32]>,
     count: usize,
     io: &mut S,
+    scratch: &mut Vec<Entry<L>>,
 ) {
     if let Some(single) = Single::of(scene) {
         return run_packets_single::<L, UNIT, S>(scene, &single, count, io);
@@ -1856,28 +1860,21 @@ pub(crate) fn run_packets<L: Lane, const UNIT: bool, S: PacketIo<L>>(
         volumes: Option<&[u32]>,
         count: usize,
         io: &mut S,
+        scratch: &mut Vec<Entry<L>>,
     ) {
         let fast = scene.tier == crate::Tier::Fast;
-        let mut scratch = Vec::new();
         for i in 0..count {
             let p = io.make(i);
-            let r = eval_general_with::<L, AXIS, UNIT>(
-                scene,
-                p,
-                true,
-                true,
-                fast,
-                volumes,
-                &mut scratch,
-            );
+            let r =
+                eval_general_with::<L, AXIS, UNIT>(scene, p, true, true, fast, volumes, scratch);
             io.take(i, &r);
         }
     }
     match scene.axis {
-        UpAxis::Axis(0) => general::<L, 0, UNIT, S>(scene, volumes, count, io),
-        UpAxis::Axis(1) => general::<L, 1, UNIT, S>(scene, volumes, count, io),
-        UpAxis::Axis(2) => general::<L, 2, UNIT, S>(scene, volumes, count, io),
-        _ => general::<L, GENERAL, UNIT, S>(scene, volumes, count, io),
+        UpAxis::Axis(0) => general::<L, 0, UNIT, S>(scene, volumes, count, io, scratch),
+        UpAxis::Axis(1) => general::<L, 1, UNIT, S>(scene, volumes, count, io, scratch),
+        UpAxis::Axis(2) => general::<L, 2, UNIT, S>(scene, volumes, count, io, scratch),
+        _ => general::<L, GENERAL, UNIT, S>(scene, volumes, count, io, scratch),
     }
 }
 

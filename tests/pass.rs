@@ -10,8 +10,8 @@ use analytic_fog::math::Lane;
 use analytic_fog::pass::{Camera, ColourBuffer, Depth, DepthConvention, PixelRay, Projection};
 use analytic_fog::reference::{self, check_sample};
 use analytic_fog::{
-    Component, FogSample, HeightFogLayer, Lighting, Outputs, PassError, Phase, Rays, Scene,
-    SceneDesc, Sun, Tier,
+    Component, Composition, FogSample, HeightFogLayer, Lighting, Outputs, PassError, Phase, Rays,
+    Scene, SceneDesc, Sun, Tier,
 };
 use glam::{DMat4, DVec3, Mat4, Vec3};
 
@@ -1314,6 +1314,11 @@ fn volume_tile_culling_is_bit_identical_to_no_culling_and_batch_api() {
             desc.height_fog.clear();
         }
         desc.volumes = vols;
+        // Every other frame composites front to back: the rows' list of touched volumes is
+        // one per row, reused from tile to tile.
+        if case % 2 == 1 {
+            desc.composition = Composition::Ordered;
+        }
         let scene = Scene::new(desc).unwrap();
         let unculled = scene.clone().without_culling();
         let packet_only = scene.clone().without_tile_culling();

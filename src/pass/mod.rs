@@ -787,7 +787,8 @@ fn fog_row<R: RowColour>(scene: &Scene, plan: &FramePlan, y: usize, depth: &[f32
             return zmm_row::fog_row_general(scene, plan, y, depth, out, None);
         }
         let mut io = RowIo::<R, Wide>::new(plan, y, depth, out);
-        run_packets::<Wide, false, _>(scene, None, depth.len().div_ceil(Wide::LANES), &mut io);
+        let packets = depth.len().div_ceil(Wide::LANES);
+        run_packets::<Wide, false, _>(scene, None, packets, &mut io, &mut Vec::new());
     }
 }
 
@@ -839,14 +840,16 @@ mod zmm_row {
         const { assert!(TILE_W.is_multiple_of(Zmm::LANES)) };
         let mut io = RowIo::<R, Zmm>::new(plan, y, depth, out);
         let packets = depth.len().div_ceil(Zmm::LANES);
+        let mut scratch = Vec::new();
         let Some(lists) = lists else {
-            return run_packets_general::<false, _>(scene, None, packets, &mut io);
+            return run_packets_general::<false, _>(scene, None, packets, &mut io, &mut scratch);
         };
         let tile_packets = TILE_W / Zmm::LANES;
         for j in 0..lists.len() {
             io.first = j * tile_packets;
             let count = (packets - io.first).min(tile_packets);
-            run_packets_general::<false, _>(scene, Some(lists.list(j)), count, &mut io);
+            let list = Some(lists.list(j));
+            run_packets_general::<false, _>(scene, list, count, &mut io, &mut scratch);
         }
     }
 }
@@ -894,10 +897,13 @@ fn fog_row_tiled<R: RowColour>(
     let packets = depth.len().div_ceil(Wide::LANES);
     let tile_packets = TILE_W / Wide::LANES;
     let mut io = RowIo::<&mut R, Wide>::new(plan, y, depth, out);
+    // One list of touched volumes for the row's tiles (ordered composition).
+    let mut scratch = Vec::new();
     for j in 0..lists.len() {
         io.first = j * tile_packets;
         let count = (packets - io.first).min(tile_packets);
-        run_packets::<Wide, false, _>(scene, Some(lists.list(j)), count, &mut io);
+        let list = Some(lists.list(j));
+        run_packets::<Wide, false, _>(scene, list, count, &mut io, &mut scratch);
     }
 }
 
