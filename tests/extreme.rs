@@ -279,6 +279,32 @@ fn rows() -> Vec<Row> {
             }
         }
     }
+    // Huge falloffs with a far camera: b·(y − h0) and Δ = b·d_up·t both beyond 2^192
+    // (saturating at the general path's 2^-64 scale) or y − h0 beyond f32::MAX, with
+    // opposite signs, so that which term wins decides between τ = 0 and τ = +∞ (found by
+    // the `height_fog` fuzz target: b = −1.2e35, camera 1.3e36 below the base, Δ =
+    // −3.5e61 gave τ = +∞ for a true τ of e^(−1.6e71)).
+    for b in [
+        1.2e35f32, -1.2e35, 2.2e12, -2.2e12, 1e30, -1e30, 3e38, -3e38,
+    ] {
+        for (h0, y) in [
+            (0.0f32, 1.3e36f32),
+            (0.0, -1.3e36),
+            (-3e38, 3e38),
+            (3e38, -3e38),
+            (0.0, 1e20),
+            (0.0, -1e20),
+        ] {
+            let mut desc = scene(b);
+            desc.height_fog[0].base_height = h0;
+            for dup in [9.2e27f32, -9.2e27, 4.0, -4.0, 1.0, -1.0, 1e10, -1e10] {
+                for t in [0.03125f32, 1.0, 1e12, 3e38, f32::INFINITY] {
+                    let d = Vec3::new(0.6, dup, 0.8);
+                    push("both terms huge", &desc, Vec3::new(0.0, y, 0.0), d, t);
+                }
+            }
+        }
+    }
     rows
 }
 

@@ -15,6 +15,12 @@
 //!   `with_unit_directions(true)` only where the directions are unit: with a Rayleigh
 //!   component lit by a sun, a "unit" direction of length 1e27 overflows the phase function
 //!   and gives L_in = NaN for t = 0, inf·0);
+//! - for a valid ray with general directions in a scene of height fog alone (no
+//!   controls) whose fog colours stay below f32::MAX / `COLOUR_HEADROOM`: τ, T and L_in
+//!   within issue 2's bound of the f64 reference (`reference::check_sample`, the bound
+//!   the test suites hold the kernels to; a condition number so large that the bound on
+//!   τ is vacuous still leaves its saturation rules: τ = 0 where the reference's is 0,
+//!   +∞ where it overflows);
 //! - for an invalid ray, NaN in every output that depends on the invalid input — see
 //!   below.
 //!
@@ -33,7 +39,10 @@
 //!   up = +Y gives the same result as `ox = 0`).
 //! - Found and fixed by this target (src/medium/height_fog.rs): a homogeneous layer
 //!   (falloff 0) gave a finite τ for a NaN height; a falloff beyond 2^40 gave τ = 0 for a
-//!   NaN height (a `min` that dropped the NaN).
+//!   NaN height (a `min` that dropped the NaN); with the reference check (sixty-fourth
+//!   session), a falloff beyond 2^40 gave τ = +∞ instead of 0 (or 0 instead of +∞) where
+//!   b·(y − h0) and b·d_up·t both left the range of the general path's 2^-64 scale with
+//!   opposite signs (b = −1.2e35, a camera 1.3e36 below the base, Δ = −3.5e61).
 //! - A scene with no height fog layer returns τ = 0, T = 1, L_in = 0 for every ray without
 //!   reading it, invalid rays included.
 //! - t = +inf is valid (a sky pixel): τ = +inf and T = 0 where the fog does not thin out
@@ -44,9 +53,10 @@
 
 #![no_main]
 
+use analytic_fog::reference::check_sample;
 use analytic_fog::{
-    Component, DistanceFog, Falloff, HeightFogLayer, Lighting, Lobe, Outputs, Phase, Rays, Scene,
-    SceneDesc, Sun, Tier,
+    Component, DistanceFog, Falloff, FogLimits, HeightFogLayer, Lighting, Lobe, Outputs, Phase,
+    Rays, Scene, SceneDesc, Sun, Tier,
 };
 use glam::Vec3;
 use libfuzzer_sys::fuzz_target;
@@ -320,6 +330,8 @@ fuzz_target!(|data: &[u8]| {
             c.push(v);
         }
     }
+    // The scene as given, for the reference (which normalizes `up` in f64 itself).
+    let given = desc.clone();
     let scene = match Scene::new(desc) {
         Ok(s) => s,
         Err(_) => return,
@@ -364,6 +376,12 @@ fuzz_target!(|data: &[u8]| {
     let reads_d_l = |c: usize| reads_d(c) || scene.has_directional_light();
     let has_fog = !scene.desc().height_fog.is_empty();
     let colour_ok = max_fog_colour(scene.desc()) <= f32::MAX as f64 / COLOUR_HEADROOM;
+    // Height fog alone (no controls, the reference's model): each valid ray's τ, T and
+    // L_in are held to issue 2's bound against the f64 reference (`check_sample`).
+    let plain = given.distance_fog.is_none()
+        && given.limits == FogLimits::default()
+        && given.lobe.is_none()
+        && given.height_fog.iter().all(|l| l.emission == Vec3::ZERO);
 
     for i in 0..n {
         let ray = [ox[i], oy[i], oz[i], dx[i], dy[i], dz[i], t[i]];
@@ -412,17 +430,31 @@ fuzz_target!(|data: &[u8]| {
             );
         }
         if !unit {
-            let s = scene.eval_ray(
-                Vec3::new(ox[i], oy[i], oz[i]),
-                Vec3::new(dx[i], dy[i], dz[i]),
-                t[i],
-            );
+            let o = Vec3::new(ox[i], oy[i], oz[i]);
+            let d = Vec3::new(dx[i], dy[i], dz[i]);
+            let s = scene.eval_ray(o, d, t[i]);
             let got = [s.tau, s.transmittance, s.inscattering].map(|v| v.to_array());
             for k in 0..9 {
                 assert!(
                     same(got[k / 3][k % 3], x8.get(k, i)),
                     "eval_ray {}: {}",
                     NAMES[k],
+                    ctx()
+                );
+            }
+            // (General directions only: a unit-direction batch's directions are unit
+            // to f32's rounding, a part of the bound spent on the input.)
+            let valid = ray[..6].iter().all(|v| v.is_finite()) && t[i] >= 0.0;
+            if valid && plain && colour_ok {
+                let c = check_sample(&given, o, d, t[i], &s);
+                assert!(
+                    c.passed(),
+                    "reference: {} (tau {:?}, T {:?}, L_in {:?}; reference {:?}); {}",
+                    c.failure.as_deref().unwrap_or(""),
+                    s.tau,
+                    s.transmittance,
+                    s.inscattering,
+                    c.reference,
                     ctx()
                 );
             }

@@ -34,11 +34,10 @@
 //! of up moves the height dot(o, up) by up to ~|o|·2⁻²⁴ and u = dot(d, up) by ~|d|·2⁻²⁴;
 //! the tests treat that as a perturbation of the input (`reference::tau_interval`), since
 //! near u = 0 it can flip the sign of u. Subnormal τ is accurate to 2⁻¹⁴⁹ per layer, not
-//! relatively. One class is outside the bound: where |b·(h(o) − h0)| ≥ 2^191 (≈ 3e57, e.g.
-//! b ≥ 1e19 with the camera 3e38 from the base; or, with a general up vector and
-//! |b| > 2^40, |dot(o, up)| beyond f32::MAX) and the ray reaches denser fog by more than
-//! that, whether τ saturates to +∞ or to 0 may be wrong (both terms of the dense-end
-//! exponent are beyond the scaled f32 range).
+//! relatively. No class of finite input is outside the bound: until the sixty-fourth
+//! session heights with |b·(h(o) − h0)| ≥ 2^191 were (both terms of the dense-end exponent
+//! beyond the scaled f32 range, so that τ could saturate to +∞ where it is 0, or the
+//! reverse); `depth_args_of` now sums them again at a second scale there.
 
 use crate::math::{
     exp2_split, exp2_split_fast, exp_split, exp_split_fast, exprel2_neg, exprel2_neg_fast,
@@ -88,6 +87,8 @@ const U_ZERO_EXPONENT: f32 = -8_388_608.0; // -2^23
 const TWO40: f32 = 1_099_511_627_776.0;
 pub(crate) const TWO_M64: f32 = 5.421_010_862_427_522e-20;
 const TWO64: f32 = 18_446_744_073_709_551_616.0;
+/// 2^96: the far sum of [`depth_args_of`]'s KIND 2 is scaled back by it twice.
+const TWO96: f32 = 79_228_162_514_264_337_593_543_950_336.0;
 /// The exponent of Δ is clamped to this before φ is evaluated; beyond it (|Δ| ≥ 256)
 /// φ = 1/Δ exactly in f32 and the rest of 1/Δ is carried in the exponent.
 const PHI_MAX_EXP: f32 = 8.0;
@@ -295,8 +296,9 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
     // The 2^-64 goes, per layer, to y0 where |b| ≤ 2^40 (y0·2^-64, from the height formed
     // at that scale, `RayGeom::y_s`, cannot overflow, and b·y0·2^-64 neither) and to b
     // otherwise (b·2^-64 is exact; a0·2^-64 overflows only beyond 2^191, and the min
-    // keeps +inf + (−inf) from giving NaN). The sum times 2^64 saturates to ±inf, which
-    // `exp_split` clamps.
+    // keeps +inf + (−inf) from giving NaN; where the sum saturates, a second sum at
+    // 2^-192 decides, below). The sum times 2^64 saturates to ±inf, which `exp_split`
+    // clamps.
     let neg_u_min = if KIND == 1 {
         let y0 = g.y - L::splat(layer.h0);
         let delta = if L::NATIVE_SCALE {
@@ -318,7 +320,34 @@ pub(crate) fn depth_args_of<L: Lane, const KIND: u8>(
         }
     } else {
         let a0s = (L::splat(layer.b * TWO_M64) * (g.y - L::splat(layer.h0))).min(L::splat(1.7e38));
-        (a0s + ds.min(L::splat(0.0))) * L::splat(-TWO64)
+        let scaled = (a0s + ds.min(L::splat(0.0))) * L::splat(-TWO64);
+        // Where that saturates, a term may have saturated first: a positive b·y0 beyond
+        // 2^192 (or with y − h0 beyond f32::MAX) is held at 1.7e38·2^64 and loses to a
+        // negative Δ of any size, and a Δ beyond 2^192 wins against any b·y0, though
+        // which term is larger decides between τ = 0 and τ = +∞ (the `height_fog` fuzz
+        // target: b = −1.2e35, camera 1.3e36 below the base, Δ = −3.5e61 gave τ = +∞
+        // for u_min = 1.6e71; `tests/extreme.rs`, "both terms huge"). Those lanes take the
+        // sum again at 2^-192, where neither term saturates before it outweighs the
+        // other: |b·2^-128| ≤ 1 times |y0·2^-64| < 2^65, and Δ·2^-192 saturates only
+        // beyond 2^320 > |b·y0|. That sum is used only where the first one is not
+        // finite, so |u_min| is beyond 2^128 there or, where the terms cancel, within
+        // their rounding (2^-24 of each), as the condition allows; Δ below 2^66 is
+        // taken as 2^66·dm (normal at that scale: it moves no sum with a term beyond 2^168).
+        let sat = !scaled.abs().le(L::splat(f32::MAX));
+        if L::any(sat) {
+            // (b·2^-128 in two exact steps: 2^-128 itself is subnormal.)
+            let b_t = layer.b * TWO_M64 * TWO_M64;
+            let a0t = L::splat(b_t) * (g.y_s - L::splat(layer.h0 * TWO_M64));
+            let dt = if L::NATIVE_SCALE {
+                dm.scale2(de.max(L::splat(66.0)) - L::splat(192.0))
+            } else {
+                dm * L::pow2i((de - L::splat(192.0)).clamp(L::splat(-126.0), L::splat(127.0)))
+            };
+            let far = (a0t + dt.min(L::splat(0.0))) * L::splat(-TWO96) * L::splat(TWO96);
+            L::select(sat, far, scaled)
+        } else {
+            scaled
+        }
     };
     // The exponent of G: n_e + t_e + min(PHI_MAX_EXP − de, 0), the part of 1/|Δ| that φ's
     // clamped argument leaves out, formed as n_e + min((PHI_MAX_EXP − b_e) − u_e, t_e)
