@@ -1350,7 +1350,6 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     let cols = &us[x_start..x_start + m * n_lanes];
     macro_rules! geometry_loop {
         ($uni:expr, $depth:expr) => {{
-            let mut x = x_start;
             for (((((dv, uv), y), g), p), cw) in depth
                 .chunks_exact(n_lanes)
                 .zip(cols.chunks_exact(n_lanes))
@@ -1359,15 +1358,10 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
                 .zip(ps.iter_mut())
                 .zip(colours.iter_mut())
             {
-                // The colour the third stage reads and writes, asked for now (in the full
-                // frame that stage otherwise waited on it: README "Intel Xeon, forty-fourth
-                // session").
-                out.prefetch(x, n_lanes);
-                // And the depth of the next block (the next row's where this is the row's
-                // last).
+                // The depth of the next block (the next row's where this is the row's
+                // last). (The colour is asked for in the third stage: see there.)
                 super::prefetch_read(dv.as_ptr().wrapping_add(BLOCK * n_lanes));
                 let d = direction(plan, rp, W::load(uv));
-                x += n_lanes;
                 let (yv, nt, inv_n) = geometry(hp, rf, d, W::load(dv), $uni, $depth);
                 // (`Lane::max` is maxps: a NaN y', the first operand, is passed over; its
                 // lane's g' stays NaN below either way.)
@@ -1396,7 +1390,6 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
     // (One copy of the loop per depth convention and kind of row, each a literal.)
     macro_rules! linear_loop {
         ($uni:expr, $depth:expr) => {{
-            let mut x = x_start;
             for ((((dv, uv), y), g), cw) in depth
                 .chunks_exact(n_lanes)
                 .zip(cols.chunks_exact(n_lanes))
@@ -1404,9 +1397,7 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
                 .zip(gs.iter_mut())
                 .zip(colours.iter_mut())
             {
-                out.prefetch(x, n_lanes);
                 super::prefetch_read(dv.as_ptr().wrapping_add(BLOCK * n_lanes));
-                x += n_lanes;
                 let u = W::load(uv);
                 let n2 = u
                     .mul_add(W::splat(lr.a2), W::splat(lr.a1))
@@ -1436,16 +1427,13 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
             let (n, inv_n) =
                 norm_and_inverse([W::splat(rp.d[0]), W::splat(rp.d[1]), W::splat(rp.d[2])]);
             let axis = hp.axis.min(2);
-            let mut x = x_start;
             for (((dv, uv), y), g) in depth
                 .chunks_exact(n_lanes)
                 .zip(cols.chunks_exact(n_lanes))
                 .zip(ys.iter_mut())
                 .zip(gs.iter_mut())
             {
-                out.prefetch(x, n_lanes);
                 super::prefetch_read(dv.as_ptr().wrapping_add(BLOCK * n_lanes));
-                x += n_lanes;
                 let t = ray_t(hp, W::load(dv), inv_n, $depth);
                 let u = W::load(uv).mul_add(W::splat(plan.d_u[axis]), W::splat(rp.d[axis]));
                 let (yv, nt) = depth_terms(hp, rf, u, n, t, $uni);
@@ -1590,6 +1578,12 @@ fn block_of<R: RowColour, W: PassLane, const PH: usize, const GREY: bool, const 
         .enumerate()
     {
         let n = if k + 1 == m { last_n } else { n_lanes };
+        // The colour of the same packet of the next block (the next row's start where
+        // this is the row's last block), asked for now: one block ahead of its use, and
+        // spread over this stage, the longest. Asked for in the geometry loop of its own
+        // block (until the sixty-fifth session: README "Zen 4, sixty-fifth session"), the
+        // whole block's misses were issued within that short loop and it waited on them.
+        out.prefetch(x0 + BLOCK * n_lanes, n_lanes);
         if rgb3 && full_block {
             let (eg, ep);
             let (g3, p3) = if W::EXPAND_IN_THIRD {

@@ -494,7 +494,8 @@ trait RowColour {
         unreachable!("fog_rgb3 on a row that is not interleaved RGB");
     }
     /// Asks the cache for the colour of the `n` pixels from `x0` ahead of
-    /// [`RowColour::fog_rgb3`]/[`RowColour::fog_wide`] (a hint; nothing by default).
+    /// [`RowColour::fog_rgb3`]/[`RowColour::fog_wide`] (a hint; nothing by default). `x0`
+    /// may lie past the row's end (the pass asks one block ahead): nothing is read.
     #[inline(always)]
     fn prefetch(&self, x0: usize, n: usize) {
         let _ = (x0, n);
