@@ -1321,12 +1321,14 @@ fn run_single<
         }
         // Stored T (the streaming case): each packet also asks for the inputs of the
         // same packet two blocks ahead, one cache line per array (every other packet on
-        // 8 lanes). The hardware's prefetch alone left the first stage, which reads
+        // 8 lanes; the arrays known at compile time: t, and the up axis's origin and
+        // direction, or the three origins with a general up. Directions read only for a
+        // sun or a general up are left to the hardware: a test per array and packet took
+        // registers the loop's constants need, 1.05× its time in cache). The hardware's prefetch alone left the first stage, which reads
         // them, waiting on memory while this longest loop had none in flight: 16M rays
         // on both cores of Zen 4 took 0.95× the time with it (README "Zen 4,
         // sixty-fifth session"). Hints only: the same bits; past the batch's end they
         // ask for nothing that is read.
-        let reads_of = [0, 1, 2, 3, 4, 5, 6].map(|j| read::<AXIS>(j, all_d));
         // The T loop of a shared block: `$f` gives the three channels' T from `$g`, with
         // one load of g per packet (an expression, not a closure: see `rgb!`).
         macro_rules! shared_t_loop {
@@ -1342,8 +1344,8 @@ fn run_single<
                         let mut ahead = i + 2 * BLOCK * L::LANES;
                         for ((&$g, tr_k), ((a, b), c)) in pairs.zip(chunks) {
                             if L::LANES >= 16 || ahead % 16 == 0 {
-                                for (r, &wanted) in rays.iter().zip(reads_of.iter()) {
-                                    if wanted {
+                                for (j, r) in rays.iter().enumerate() {
+                                    if read::<AXIS>(j, false) {
                                         crate::pass::prefetch_read(r.as_ptr().wrapping_add(ahead));
                                     }
                                 }
