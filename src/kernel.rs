@@ -1321,14 +1321,15 @@ fn run_single<
         }
         // Stored T (the streaming case): each packet also asks for the inputs of the
         // same packet two blocks ahead, one cache line per array (every other packet on
-        // 8 lanes; the arrays known at compile time: t, and the up axis's origin and
-        // direction, or the three origins with a general up. Directions read only for a
-        // sun or a general up are left to the hardware: a test per array and packet took
-        // registers the loop's constants need, 1.05× its time in cache). The hardware's prefetch alone left the first stage, which reads
+        // 8 lanes). The hardware's prefetch alone left the first stage, which reads
         // them, waiting on memory while this longest loop had none in flight: 16M rays
-        // on both cores of Zen 4 took 0.95× the time with it (README "Zen 4,
-        // sixty-fifth session"). Hints only: the same bits; past the batch's end they
-        // ask for nothing that is read.
+        // on both cores of Zen 4 took 0.89× the time with it (README "Zen 4,
+        // sixty-fifth session"). The arrays are those known at compile time: t, and the
+        // up axis's origin and direction, or the three origins with a general up;
+        // directions read only for a sun or a general up are left to the hardware (a
+        // test per array and packet took registers the loop's constants need: 1.05× its
+        // time in cache). Hints only: the same bits; past the batch's end they ask for
+        // nothing that is read.
         // The T loop of a shared block: `$f` gives the three channels' T from `$g`, with
         // one load of g per packet (an expression, not a closure: see `rgb!`).
         macro_rules! shared_t_loop {
